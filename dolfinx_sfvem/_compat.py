@@ -1,0 +1,156 @@
+"""Every call that is specific to DOLFINx 0.5.2 / PETSc 3.18 lives here.
+
+A port to a newer DOLFINx (0.9/0.10) should only need to touch this module:
+
+- mesh creation with a user-given cell partitioner,
+- the mapping of local cells / geometry nodes back to their input indices,
+- JIT compilation of a UFL expression into a C function pointer (FFCx),
+- PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES
+  domain errors), called through ctypes on the object handles.
+"""
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import functools
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.cpp
+import dolfinx.jit
+import dolfinx.mesh
+
+DOLFINX_VERSION = dolfinx.__version__
+
+#: PETSc InsertMode values (petscsystypes.h)
+INSERT_VALUES = 1
+ADD_VALUES = 2
+
+
+# --------------------------------------------------------------------------- mesh
+def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
+                         destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
+    """Create a distributed affine triangle mesh with a prescribed cell distribution.
+
+    Parameters
+    ----------
+    comm
+        Communicator of the new mesh.
+    cells : (n_cells, 3) int64
+        Input cells (indices into ``x``) held by this rank (usually all on rank 0).
+    x : (n_nodes, 2) float64
+        Input node coordinates held by this rank.
+    destinations : (n_cells,) int32
+        Rank that shall own each input cell of this rank.
+
+    Returns
+    -------
+    dolfinx.mesh.Mesh
+        Mesh without ghost cells; shared vertices/edges are ghosted by DOLFINx as usual.
+    """
+    dest = np.ascontiguousarray(destinations, dtype=np.int32)
+
+    def partitioner(_comm, n_parts, tdim, graph, ghost_mode):
+        assert graph.num_nodes == dest.size
+        return dolfinx.cpp.graph.AdjacencyList_int32(dest)
+
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells, dtype=np.int64),
+                                    np.ascontiguousarray(x, dtype=np.float64), domain,
+                                    ghost_mode=dolfinx.mesh.GhostMode.none, partitioner=partitioner)
+
+
+def original_cell_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
+    """Input index of every local cell, shape (n_local_cells,)."""
+    return np.asarray(mesh.topology.original_cell_index, dtype=np.int64)
+
+
+def input_node_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
+    """Input index of every local geometry node, shape (n_local_nodes,)."""
+    return np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
+
+
+def cell_geometry_nodes(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int32]:
+    """Geometry node indices of each local cell, shape (n_local_cells, 3)."""
+    return mesh.geometry.dofmap.array.reshape(-1, 3)
+
+
+def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
+    """Blocked dof (node) indices of each local cell of a Lagrange space, shape (n_cells, n_dofs)."""
+    dm = V.dofmap
+    return dm.list.array.reshape(dm.list.num_nodes, -1)
+
+
+# --------------------------------------------------------------------------- JIT
+_KERNEL_SIGNATURE = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+                                     ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+
+
+def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr):
+    """Compile a spatially constant UFL expression of ``ufl.Constant`` s with FFCx.
+
+    The generated C function has the ufcx signature
+    ``void f(double* A, const double* w, const double* c, const double* x,
+    const int* entity_local_index, const uint8_t* perm)``; it *adds* the
+    expression's flattened (row-major) components to ``A``. ``c`` holds the
+    constants packed in the order of :func:`expression_constants`.
+
+    Returns
+    -------
+    (function, module)
+        A ctypes function (callable from numba nopython code) and the
+        compiled module (keep it alive as long as the function is used).
+    """
+    point = np.zeros((1, 2))
+    compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
+    address = int(module.ffi.cast("uintptr_t", compiled.tabulate_tensor_float64))
+    return _KERNEL_SIGNATURE(address), module
+
+
+def expression_constants(expression: ufl.core.expr.Expr) -> list:
+    """The ``ufl.Constant`` s of an expression in the order FFCx packs them."""
+    return list(ufl.algorithms.analysis.extract_constants(expression))
+
+
+# --------------------------------------------------------------------------- PETSc
+@functools.lru_cache(maxsize=None)
+def _libpetsc() -> ctypes.CDLL:
+    for name in ("petsc_real", "petsc"):
+        path = ctypes.util.find_library(name)
+        if path:
+            lib = ctypes.CDLL(path)
+            lib.MatSetPreallocationCOO.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p,
+                                                   ctypes.c_void_p]
+            lib.MatSetValuesCOO.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
+            lib.SNESSetFunctionDomainError.argtypes = [ctypes.c_void_p]
+            return lib
+    raise RuntimeError("cannot locate the PETSc shared library")
+
+
+def _check(err: int, what: str) -> None:
+    if err != 0:
+        raise RuntimeError(f"PETSc error {err} in {what}")
+
+
+def mat_set_preallocation_coo(A: PETSc.Mat, rows: npt.NDArray, cols: npt.NDArray) -> None:
+    """``MatSetPreallocationCOO`` with global row/column indices (negative entries are ignored)."""
+    rows = np.ascontiguousarray(rows, dtype=PETSc.IntType)
+    cols = np.ascontiguousarray(cols, dtype=PETSc.IntType)
+    _check(_libpetsc().MatSetPreallocationCOO(A.handle, rows.size, rows.ctypes.data, cols.ctypes.data),
+           "MatSetPreallocationCOO")
+
+
+def mat_set_values_coo(A: PETSc.Mat, values: npt.NDArray[np.float64], mode: int = INSERT_VALUES) -> None:
+    """``MatSetValuesCOO``: values in the order of the COO preallocation; duplicates are summed."""
+    values = np.ascontiguousarray(values, dtype=PETSc.ScalarType)
+    _check(_libpetsc().MatSetValuesCOO(A.handle, values.ctypes.data, mode), "MatSetValuesCOO")
+
+
+def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
+    """Tell SNES that the last trial point is outside the domain of the residual (e.g. J <= 0)."""
+    _check(_libpetsc().SNESSetFunctionDomainError(snes.handle), "SNESSetFunctionDomainError")
