@@ -33,6 +33,27 @@ ADD_VALUES = 2
 
 
 # --------------------------------------------------------------------------- mesh
+def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Destinations [owner, ranks of facet neighbours owned elsewhere] of every cell (CSR)."""
+    n = cells.shape[0]
+    edges = np.sort(np.vstack([cells[:, [1, 2]], cells[:, [0, 2]], cells[:, [0, 1]]]), axis=1)
+    cell = np.tile(np.arange(n), 3)
+    key = edges[:, 0] * (int(cells.max(initial=0)) + 1) + edges[:, 1]
+    order = np.argsort(key, kind="stable")
+    key, cell = key[order], cell[order]
+    twin = np.flatnonzero(key[1:] == key[:-1])
+    a, b = cell[twin], cell[twin + 1]
+    cross = owner[a] != owner[b]
+    ghost_cell = np.concatenate([a[cross], b[cross]])
+    ghost_rank = np.concatenate([owner[b[cross]], owner[a[cross]]])
+    pairs = np.unique(np.stack([np.concatenate([np.arange(n), ghost_cell]),
+                                np.concatenate([np.full(n, -1), ghost_rank])], axis=1), axis=0)
+    # the owner comes first: it was entered with rank -1, which sorts first within a cell
+    data = np.where(pairs[:, 1] < 0, owner[pairs[:, 0]], pairs[:, 1]).astype(np.int32)
+    offsets = np.concatenate([[0], np.cumsum(np.bincount(pairs[:, 0], minlength=n))]).astype(np.int32)
+    return data, offsets
+
+
 def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
                          destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
     """Create a distributed affine triangle mesh with a prescribed cell distribution.
@@ -51,18 +72,37 @@ def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.ND
     Returns
     -------
     dolfinx.mesh.Mesh
-        Mesh without ghost cells; shared vertices/edges are ghosted by DOLFINx as usual.
-    """
-    dest = np.ascontiguousarray(destinations, dtype=np.int32)
+        The owned cells of each rank come first (``topology.index_map(2).size_local``);
+        in parallel they are followed by one layer of ghost cells.
 
-    def partitioner(_comm, n_parts, tdim, graph, ghost_mode):
-        assert graph.num_nodes == dest.size
-        return dolfinx.cpp.graph.AdjacencyList_int32(dest)
+    Notes
+    -----
+    DOLFINx 0.5.2 finds the vertices shared between ranks through the ghost cells the
+    partitioner returns (FEniCS/dolfinx#1991): a partitioner that returns owners only,
+    with ``GhostMode.none``, silently yields disconnected pieces. So in parallel every
+    cell is also sent, as a ghost, to the owners of its facet neighbours.
+    """
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    owner = np.ascontiguousarray(destinations, dtype=np.int32)
+    if comm.size == 1:
+        data, offsets = owner, np.arange(owner.size + 1, dtype=np.int32)
+        ghost_mode = dolfinx.mesh.GhostMode.none
+    else:
+        data, offsets = _facet_ghost_destinations(cells, owner)
+        ghost_mode = dolfinx.mesh.GhostMode.shared_facet
+
+    def partitioner(_comm, n_parts, tdim, graph, _ghost_mode):
+        assert graph.num_nodes == owner.size
+        return dolfinx.cpp.graph.AdjacencyList_int32(data, offsets)
 
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
-    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells, dtype=np.int64),
-                                    np.ascontiguousarray(x, dtype=np.float64), domain,
-                                    ghost_mode=dolfinx.mesh.GhostMode.none, partitioner=partitioner)
+    return dolfinx.mesh.create_mesh(comm, cells, np.ascontiguousarray(x, dtype=np.float64), domain,
+                                    ghost_mode=ghost_mode, partitioner=partitioner)
+
+
+def num_owned_cells(mesh: dolfinx.mesh.Mesh) -> int:
+    """Number of cells owned by this rank (they come before the ghost cells)."""
+    return mesh.topology.index_map(mesh.topology.dim).size_local
 
 
 def original_cell_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
@@ -98,7 +138,8 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
     ``void f(double* A, const double* w, const double* c, const double* x,
     const int* entity_local_index, const uint8_t* perm)``; it *adds* the
     expression's flattened (row-major) components to ``A``. ``c`` holds the
-    constants packed in the order of :func:`expression_constants`.
+    constants that survive derivative expansion, in UFL count order; pass a single
+    vector Constant to keep the packing explicit.
 
     Returns
     -------
@@ -110,11 +151,6 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
     compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
     address = int(module.ffi.cast("uintptr_t", compiled.tabulate_tensor_float64))
     return _KERNEL_SIGNATURE(address), module
-
-
-def expression_constants(expression: ufl.core.expr.Expr) -> list:
-    """The ``ufl.Constant`` s of an expression in the order FFCx packs them."""
-    return list(ufl.algorithms.analysis.extract_constants(expression))
 
 
 # --------------------------------------------------------------------------- PETSc

@@ -1,0 +1,241 @@
+"""SFVEM polygon loops: energy, residual (paper Eq. 52) and tangent (Eq. 56).
+
+For every polygon E and quadrature point x_q the projected gradients of the 2N+1 scalar
+basis functions are (Eq. 43 and Eq. 45)
+
+    dphi[j, a]    = m(x_q) · Pi_m[j, :, a]              (∂φ_a/∂X_j)
+    d2phi[j, k, a] = ∂_k m(x_q) · Pi_m[j, :, a]          (∂/∂X_k of the projected ∂φ_a/∂X_j)
+
+so that F = I + Σ_a u_a ⊗ dphi[:, a] and G_ijk = Σ_a u_ia d2phi[j, k, a] (not symmetrised
+in j, k). The compiled pointwise energy kernels (``kernels.py``) return P, T and D, A, B
+(Eqs. 30-32); here they are contracted with the B1 = dphi and B2 = d2phi operators
+(Eqs. 49-51). Instead of the paper's matrix forms (Eqs. 53-54, C.1-C.3) the operators are
+kept per displacement component: with Φ = [dphi; d2phi] (6 × nd) and, for the component
+pair (i, m), the 6 × 6 block
+
+    C_im = [[D_ijmn,  A_mnpij ],
+            [A_ijkmn, B_ijkmnp]],
+
+the tangent is K[(i,a),(m,b)] = Σ_q w_q Φ[:, a]ᵀ C_im Φ[:, b] — Eq. 56 term by term.
+
+Element vectors and matrices are node-major: local unknown ``2 a + i`` is component i
+of the a-th DOF of the polygon.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .monomials import evaluate_monomials
+
+
+@numba.njit(cache=True)
+def _projected_derivatives(x, xE, hE, l, Pi_m, m, dm, dphi, d2phi):
+    """dphi (2, nd) and d2phi (2, 2, nd) of all basis functions at the point x (Eqs. 43, 45)."""
+    evaluate_monomials(x, xE, hE, l, m, dm[0], dm[1])
+    nl, nd = Pi_m.shape[1], Pi_m.shape[2]
+    for j in range(2):
+        for a in range(nd):
+            s = 0.0
+            s0 = 0.0
+            s1 = 0.0
+            for b in range(nl):
+                p = Pi_m[j, b, a]
+                s += m[b] * p
+                s0 += dm[0, b] * p
+                s1 += dm[1, b] * p
+            dphi[j, a] = s
+            d2phi[j, 0, a] = s0
+            d2phi[j, 1, a] = s1
+
+
+@numba.njit(cache=True)
+def _deformation(ue, dphi, d2phi, c, F_at, G_at):
+    """Write F = I + ∇u (row-major) and G_ijk = ∂F_ij/∂X_k into the constants array; return J."""
+    nd = ue.shape[0]
+    for i in range(2):
+        for j in range(2):
+            s = 1.0 if i == j else 0.0
+            for a in range(nd):
+                s += ue[a, i] * dphi[j, a]
+            c[F_at + 2 * i + j] = s
+            for k in range(2):
+                g = 0.0
+                for a in range(nd):
+                    g += ue[a, i] * d2phi[j, k, a]
+                c[G_at + 4 * i + 2 * j + k] = g
+    return c[F_at] * c[F_at + 3] - c[F_at + 1] * c[F_at + 2]
+
+
+@numba.njit(cache=True)
+def _polygon_block(Pi_m_flat, pim_off, e, l, nd):
+    nl = (l + 1) * (l + 2) // 2
+    return Pi_m_flat[pim_off[e]:pim_off[e + 1]].reshape(2, nl, nd)
+
+
+@numba.njit(cache=True)
+def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
+                  dof_off, dofs, l, xE, hE, pim_off, Pi_m, q_off, x_q, w_q, u, R, stats):
+    """Add the residual (Eq. 52) of ``polygons`` to ``R`` and accumulate diagnostics.
+
+    Parameters
+    ----------
+    kernel
+        Compiled pointwise residual kernel returning [Ψ, P(4), T(8)] (or [Ψ, P]).
+    c : (n_constants,)
+        Constants of the kernel (parameters already packed; F, G written here).
+    polygons : (n,) int64
+        Local polygon indices of one material region.
+    u, R : (n_local_nodes, 2)
+        Local (owned + ghost) nodal displacements and residual.
+    stats : (3,)
+        In/out: [energy Σ w Ψ, min J, local polygon index of min J].
+    """
+    out = np.zeros(13)
+    w_ = np.zeros(1)
+    x_ = np.zeros(9)
+    ei = np.zeros(1, dtype=np.int32)
+    perm = np.zeros(1, dtype=np.uint8)
+    lmax = l.max() if l.size else 1
+    nl_max = (lmax + 1) * (lmax + 2) // 2
+    m = np.empty(nl_max)
+    dm = np.empty((2, nl_max))
+    for e in polygons:
+        d0, d1 = dof_off[e], dof_off[e + 1]
+        nd = d1 - d0
+        ue = np.empty((nd, 2))
+        for a in range(nd):
+            ue[a, 0] = u[dofs[d0 + a], 0]
+            ue[a, 1] = u[dofs[d0 + a], 1]
+        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
+        dphi = np.empty((2, nd))
+        d2phi = np.empty((2, 2, nd))
+        Re = np.zeros((nd, 2))
+        for q in range(q_off[e], q_off[e + 1]):
+            _projected_derivatives(x_q[q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
+            J = _deformation(ue, dphi, d2phi, c, F_at, G_at)
+            if not (J > stats[1]):
+                stats[1] = J
+                stats[2] = e
+            out[:] = 0.0
+            kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
+            w = w_q[q]
+            stats[0] += w * out[0]
+            for a in range(nd):
+                for i in range(2):
+                    s = out[P_at + 2 * i] * dphi[0, a] + out[P_at + 2 * i + 1] * dphi[1, a]
+                    if uses_gradient:
+                        for j in range(2):
+                            for k in range(2):
+                                s += out[T_at + 4 * i + 2 * j + k] * d2phi[j, k, a]
+                    Re[a, i] += w * s
+        for a in range(nd):
+            R[dofs[d0 + a], 0] += Re[a, 0]
+            R[dofs[d0 + a], 1] += Re[a, 1]
+
+
+@numba.njit(cache=True)
+def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons,
+                 dof_off, dofs, l, xE, hE, pim_off, Pi_m, q_off, x_q, w_q, u, values, coo_off):
+    """Write the tangent (Eq. 56) of ``polygons`` into the COO value array.
+
+    The element matrix of local polygon e is stored row-major, node-major, at
+    ``values[coo_off[e]:coo_off[e] + (2 nd)²]``.
+    """
+    out = np.zeros(124)
+    w_ = np.zeros(1)
+    x_ = np.zeros(9)
+    ei = np.zeros(1, dtype=np.int32)
+    perm = np.zeros(1, dtype=np.uint8)
+    lmax = l.max() if l.size else 1
+    nl_max = (lmax + 1) * (lmax + 2) // 2
+    m = np.empty(nl_max)
+    dm = np.empty((2, nl_max))
+    nphi = 6 if uses_gradient else 2
+    C = np.empty((2, 2, nphi, nphi))
+    for e in polygons:
+        d0, d1 = dof_off[e], dof_off[e + 1]
+        nd = d1 - d0
+        ue = np.empty((nd, 2))
+        for a in range(nd):
+            ue[a, 0] = u[dofs[d0 + a], 0]
+            ue[a, 1] = u[dofs[d0 + a], 1]
+        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
+        dphi = np.empty((2, nd))
+        d2phi = np.empty((2, 2, nd))
+        Phi = np.empty((nphi, nd))
+        CPhi = np.empty((nphi, nd))
+        Ke = np.zeros((nd, 2, nd, 2))
+        for q in range(q_off[e], q_off[e + 1]):
+            _projected_derivatives(x_q[q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
+            _deformation(ue, dphi, d2phi, c, F_at, G_at)
+            out[:] = 0.0
+            kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
+            for a in range(nd):
+                Phi[0, a] = dphi[0, a]
+                Phi[1, a] = dphi[1, a]
+                if uses_gradient:
+                    for j in range(2):
+                        for k in range(2):
+                            Phi[2 + 2 * j + k, a] = d2phi[j, k, a]
+            # C_im blocks (see module docstring)
+            for i in range(2):
+                for mm in range(2):
+                    for j in range(2):
+                        for n in range(2):
+                            C[i, mm, j, n] = out[D_at + 8 * i + 4 * j + 2 * mm + n]
+                    if uses_gradient:
+                        for j in range(2):
+                            for k in range(2):
+                                for n in range(2):
+                                    Aijkmn = out[A_at + 16 * i + 8 * j + 4 * k + 2 * mm + n]
+                                    C[i, mm, 2 + 2 * j + k, n] = Aijkmn
+                                    C[mm, i, n, 2 + 2 * j + k] = Aijkmn
+                                    for p in range(2):
+                                        C[i, mm, 2 + 2 * j + k, 2 + 2 * n + p] = \
+                                            out[B_at + 32 * i + 16 * j + 8 * k + 4 * mm + 2 * n + p]
+            w = w_q[q]
+            for i in range(2):
+                for mm in range(2):
+                    for al in range(nphi):
+                        for b in range(nd):
+                            s = 0.0
+                            for be in range(nphi):
+                                s += C[i, mm, al, be] * Phi[be, b]
+                            CPhi[al, b] = w * s
+                    for a in range(nd):
+                        for b in range(nd):
+                            s = 0.0
+                            for al in range(nphi):
+                                s += Phi[al, a] * CPhi[al, b]
+                            Ke[a, i, b, mm] += s
+        values[coo_off[e]:coo_off[e] + 4 * nd * nd] = Ke.ravel()
+
+
+@numba.njit(cache=True)
+def coo_pattern(dof_off, dofs, global_node, coo_off):
+    """Global row/column indices of the dense node-major element blocks, in polygon order."""
+    n = coo_off[-1]
+    rows = np.empty(n, dtype=np.int32)
+    cols = np.empty(n, dtype=np.int32)
+    for e in range(dof_off.size - 1):
+        d0, d1 = dof_off[e], dof_off[e + 1]
+        nd = d1 - d0
+        pos = coo_off[e]
+        for a in range(nd):
+            for i in range(2):
+                r = 2 * global_node[dofs[d0 + a]] + i
+                for b in range(nd):
+                    for mm in range(2):
+                        rows[pos] = r
+                        cols[pos] = 2 * global_node[dofs[d0 + b]] + mm
+                        pos += 1
+    return rows, cols
+
+
+@numba.njit(cache=True)
+def zero_constrained_rows(values, rows_local, constrained, coo_off_end):
+    """Zero the COO entries whose (local) row is a constrained unknown."""
+    for p in range(coo_off_end):
+        if constrained[rows_local[p]]:
+            values[p] = 0.0

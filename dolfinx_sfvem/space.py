@@ -1,0 +1,344 @@
+"""The order-2 SFVEM displacement space on a polygon mesh, distributed over MPI.
+
+Every polygon ``E`` with ``N`` vertices carries ``nd = 2N + 1`` scalar DOFs per
+displacement component (paper §4.1, χ¹–χ³): the values at its vertices, the values at
+its edge midpoints and its mean. The space sits on a DOLFINx P2 space over the
+quadrature sub-triangulation (DESIGN §3): that space already has a node at every
+polygon vertex and polygon-edge midpoint, with parallel ownership and ghosts handled
+by DOLFINx, and the interior DOF sits on one interior P2 node of the polygon (its fan
+centre or the midpoint of an interior diagonal). The remaining interior P2 nodes are
+*not* unknowns: the numbering built here holds the SFVEM unknowns only.
+
+Local numbering: SFVEM *nodes* are numbered owned first, then ghosts; the unknowns are
+blocked by two components, dof ``2 * node + i`` for component ``i``.
+"""
+from __future__ import annotations
+
+import typing
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.cpp
+import dolfinx.fem
+import dolfinx.la
+
+from . import _compat
+from .mesh import PolygonMesh
+from .monomials import evaluate_monomials
+from .projection import Projections, build_projections
+from .quadrature import polygon_quadrature
+
+#: kinds of SFVEM nodes
+VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
+
+
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Concatenation of ``arange(s, s + n)`` for all (s, n), vectorised."""
+    total = int(lengths.sum())
+    shift = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
+    return shift + np.arange(total)
+
+
+class _EdgeLookup:
+    """Map an (unordered) pair of input node indices to the local P2 node at its midpoint."""
+
+    def __init__(self, a: np.ndarray, b: np.ndarray, nodes: np.ndarray, n: int):
+        self._n = n
+        keys = np.minimum(a, b) * n + np.maximum(a, b)
+        self._keys, first = np.unique(keys, return_index=True)
+        self._nodes = nodes[first]
+
+    def __call__(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        if a.size == 0:
+            return np.empty(0, dtype=self._nodes.dtype)
+        keys = np.minimum(a, b) * self._n + np.maximum(a, b)
+        pos = np.searchsorted(self._keys, keys)
+        pos = np.minimum(pos, self._keys.size - 1)
+        if not np.all(self._keys[pos] == keys):
+            raise RuntimeError("polygon edge missing from its sub-triangulation")
+        return self._nodes[pos]
+
+
+class VEMSpace:
+    """SFVEM space of order 2 (vector valued, plane) on a :class:`PolygonMesh`.
+
+    Parameters
+    ----------
+    mesh
+        The polygon mesh (identical on every rank).
+    comm
+        Communicator; polygons are distributed by ``mesh.partition(comm.size)``.
+    l
+        Order of the gradient projection Π⁰_l∇ (Eq. 39): ``None`` chooses the smallest
+        sufficient l ≥ ``l_min`` per polygon (DESIGN §4.5); an int or a per-polygon array
+        (global polygon numbering) imposes it and raises if rank-deficient.
+    l_min
+        Smallest automatic l (3, as in the paper).
+    quadrature_degree
+        Degree of the sub-triangle rule for the energy integrals; default ``2 l`` per polygon.
+    verbose
+        Print the distribution of l on rank 0.
+
+    Attributes
+    ----------
+    mesh : dolfinx.mesh.Mesh
+        The distributed quadrature sub-triangulation.
+    V : dolfinx.fem.FunctionSpace
+        Vector P2 space on it (output and node layout).
+    polygons : (n_local,) int64
+        Global indices of the polygons assembled on this rank.
+    tags : (n_local,) int32
+        Their region tags.
+    dof_offsets, dofs : CSR arrays
+        ``dofs[dof_offsets[k]:dof_offsets[k+1]]`` are the local SFVEM node indices of
+        local polygon k, in the order [vertices, edge midpoints, interior].
+    index_map : dolfinx.cpp.common.IndexMap
+        Owned/ghost layout of the SFVEM nodes (block size 2 for the unknowns).
+    x_nodes : (n_local_nodes, 2)
+        Coordinates of the SFVEM nodes (interior ones at the node hosting the mean).
+    node_kind : (n_local_nodes,) int8
+        VERTEX, MIDPOINT or INTERIOR.
+    node_point : (n_local_nodes,) int64
+        Index of the polygon-mesh point at each VERTEX node, -1 for the others.
+    projections : Projections
+        Π^∇_2 and Π⁰_l∇ of the local polygons.
+    q_offsets, x_q, w_q
+        Energy quadrature of the local polygons.
+    """
+
+    def __init__(self, mesh: PolygonMesh, comm: MPI.Comm = MPI.COMM_WORLD, *,
+                 l: int | npt.ArrayLike | None = None, l_min: int = 3,
+                 quadrature_degree: int | None = None, verbose: bool = True):
+        self.polygon_mesh = mesh
+        self.comm = comm
+        self.mesh, cell_polygon = mesh.to_dolfinx(comm)
+        self.V = dolfinx.fem.VectorFunctionSpace(self.mesh, ("Lagrange", 2))
+        self._cell_polygon = cell_polygon[:_compat.num_owned_cells(self.mesh)]   # ghost cells dropped
+        self.polygons = np.unique(self._cell_polygon).astype(np.int64)
+        self.tags = mesh.tags[self.polygons]
+
+        p2_nodes, kind = self._polygon_p2_nodes()
+        self._number_nodes(p2_nodes, kind)
+
+        l_local = l if (l is None or np.isscalar(l)) else np.asarray(l)[self.polygons]
+        self.projections: Projections = build_projections(mesh.points, mesh.offsets, mesh.vertices,
+                                                          polygons=self.polygons, l=l_local, l_min=l_min)
+        degrees = (2 * self.projections.l if quadrature_degree is None
+                   else np.full(self.polygons.size, quadrature_degree))
+        self.q_offsets, self.x_q, self.w_q = polygon_quadrature(
+            mesh.nodes, mesh.triangles, mesh.triangle_offsets, self.polygons, degrees)
+        self._to_p2 = None
+        if verbose:
+            text = self.summary()
+            if comm.rank == 0:
+                print(text, flush=True)
+
+    # ------------------------------------------------------------------ numbering
+    def _polygon_p2_nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Local P2 node of every SFVEM DOF of the local polygons, and its kind."""
+        mesh = self.polygon_mesh
+        inp = _compat.input_node_index(self.mesh)[_compat.cell_geometry_nodes(self.mesh)]
+        p2 = _compat.cell_dofs(self.V)
+        n_in = mesh.nodes.shape[0]
+        node_of_input = np.full(n_in, -1, dtype=np.int64)
+        node_of_input[inp.ravel()] = p2[:, :3].ravel()
+        # P2 edge dof 3 + k sits on the reference edge opposite vertex k
+        edge_node = _EdgeLookup(inp[:, [1, 0, 0]].ravel(), inp[:, [2, 2, 1]].ravel(), p2[:, 3:].ravel(), n_in)
+
+        P = self.polygons
+        N = mesh.offsets[P + 1] - mesh.offsets[P]
+        nd = 2 * N + 1
+        self.dof_offsets = np.concatenate([[0], np.cumsum(nd)]).astype(np.int64)
+        first = self.dof_offsets[:-1]
+        v = mesh.vertices[_ranges(mesh.offsets[P], N)]
+        local_i = _ranges(np.zeros_like(N), N)
+        v_next = mesh.vertices[_ranges(mesh.offsets[P], N) - local_i + (local_i + 1) % np.repeat(N, N)]
+        a, b = mesh.interior_node[P, 0], mesh.interior_node[P, 1]
+        interior = node_of_input[a]
+        diagonal = a != b
+        interior[diagonal] = edge_node(a[diagonal], b[diagonal])
+
+        nodes = np.empty(self.dof_offsets[-1], dtype=np.int64)
+        kind = np.empty(self.dof_offsets[-1], dtype=np.int8)
+        at_vertex = _ranges(first, N)
+        at_mid = _ranges(first + N, N)
+        nodes[at_vertex], kind[at_vertex] = node_of_input[v], VERTEX
+        self._dof_point = np.full(self.dof_offsets[-1], -1, dtype=np.int64)
+        self._dof_point[at_vertex] = v
+        nodes[at_mid], kind[at_mid] = edge_node(v, v_next), MIDPOINT
+        nodes[first + 2 * N], kind[first + 2 * N] = interior, INTERIOR
+        if np.any(nodes < 0):
+            raise RuntimeError("a polygon node is missing from the sub-triangulation")
+        return nodes, kind
+
+    def _number_nodes(self, p2_nodes: np.ndarray, kind: np.ndarray) -> None:
+        """Global numbering of the SFVEM nodes: owned P2 nodes that are SFVEM nodes, then ghosts."""
+        im = self.V.dofmap.index_map
+        n_owned_p2, n_local_p2 = im.size_local, im.size_local + im.num_ghosts
+        is_sfvem = np.zeros(n_local_p2, dtype=bool)
+        is_sfvem[p2_nodes] = True
+        owned = np.flatnonzero(is_sfvem[:n_owned_p2])
+        ghosts = n_owned_p2 + np.flatnonzero(is_sfvem[n_owned_p2:])
+        offset = self.comm.exscan(owned.size) or 0
+
+        global_index = dolfinx.la.create_petsc_vector(im, 1)
+        with global_index.localForm() as g:
+            g.set(-1.0)
+            g.array[owned] = offset + np.arange(owned.size)
+        global_index.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with global_index.localForm() as g:
+            ghost_global = g.array[ghosts].astype(np.int64)
+        global_index.destroy()
+        if np.any(ghost_global < 0):
+            raise RuntimeError("SFVEM ghost node not owned by any rank")
+        ghost_owners = np.asarray(im.owners, dtype=np.int32)[ghosts - n_owned_p2]
+        self.index_map = dolfinx.cpp.common.IndexMap(self.comm, owned.size, ghost_global, ghost_owners)
+
+        self.p2_node = np.concatenate([owned, ghosts])           # SFVEM node -> local P2 node
+        sfvem_of_p2 = np.full(n_local_p2, -1, dtype=np.int64)
+        sfvem_of_p2[self.p2_node] = np.arange(self.p2_node.size)
+        self.dofs = sfvem_of_p2[p2_nodes]
+        self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
+        self.node_kind[self.dofs] = kind
+        self.node_point = np.full(self.p2_node.size, -1, dtype=np.int64)   # mesh point of VERTEX nodes
+        self.node_point[self.dofs] = self._dof_point
+        self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :2].copy()
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_owned_nodes(self) -> int:
+        return self.index_map.size_local
+
+    @property
+    def n_local_nodes(self) -> int:
+        return self.index_map.size_local + self.index_map.num_ghosts
+
+    @property
+    def num_dofs_global(self) -> int:
+        """Number of SFVEM unknowns (2 per node) over all ranks."""
+        return 2 * self.index_map.size_global
+
+    def polygon_dofs(self, k: int) -> np.ndarray:
+        """Local SFVEM node indices of local polygon ``k`` ([vertices, midpoints, interior])."""
+        return self.dofs[self.dof_offsets[k]:self.dof_offsets[k + 1]]
+
+    def create_vector(self) -> PETSc.Vec:
+        """A ghosted PETSc vector of SFVEM unknowns (block size 2)."""
+        return dolfinx.la.create_petsc_vector(self.index_map, 2)
+
+    # ------------------------------------------------------------------ location
+    def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
+                     tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local SFVEM nodes (owned and ghost) selected geometrically and/or by region tag.
+
+        Parameters
+        ----------
+        marker
+            Function of coordinates ``x`` of shape (2, n) returning a bool array (n,), as in
+            ``dolfinx.fem.locate_dofs_geometrically``. Interior nodes are located at the
+            node hosting the polygon mean.
+        tags
+            Region tags: all nodes of the polygons with these tags.
+
+        The selection is made consistent across ranks (a node selected on one rank is
+        selected on every rank that holds it).
+        """
+        if marker is None and tags is None:
+            raise ValueError("give a marker function, region tags, or both")
+        selected = np.ones(self.n_local_nodes, dtype=bool)
+        if marker is not None:
+            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
+        if tags is not None:
+            in_tags = np.zeros(self.n_local_nodes, dtype=bool)
+            chosen = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
+            counts = np.diff(self.dof_offsets)
+            in_tags[self.dofs[np.repeat(chosen, counts)]] = True
+            selected &= in_tags
+        return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
+
+    def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
+        """Max-combine a per-node indicator over all ranks that hold the node."""
+        vec = dolfinx.la.create_petsc_vector(self.index_map, 1)
+        with vec.localForm() as v:
+            v.array[:] = node_values
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with vec.localForm() as v:
+            out = v.array.copy()
+        vec.destroy()
+        return out
+
+    # ------------------------------------------------------------------ output
+    def _p2_interpolation(self) -> scipy.sparse.csr_matrix:
+        """Sparse map from local SFVEM node values to local P2 node values.
+
+        Boundary and interior-DOF nodes of the P2 space that are SFVEM vertices/midpoints
+        take their DOF value; every other P2 node (fan centre, spoke midpoints) takes the
+        value of Π^∇_2 u (Eq. 36) of its polygon at that point.
+        """
+        if self._to_p2 is not None:
+            return self._to_p2
+        im = self.V.dofmap.index_map
+        n_p2 = im.size_local + im.num_ghosts
+        p2 = _compat.cell_dofs(self.V)[:self._cell_polygon.size]
+        x_p2 = self.V.tabulate_dof_coordinates()[:, :2]
+        local_of_global = {g: k for k, g in enumerate(self.polygons)}
+        cell_local_polygon = np.fromiter((local_of_global[g] for g in self._cell_polygon), dtype=np.int64,
+                                         count=self._cell_polygon.size)
+        # one owning polygon per P2 node of the owned cells (any polygon containing it gives
+        # the same value for boundary nodes; interior nodes belong to exactly one polygon);
+        # nodes seen only by ghost cells get their values from their owner by a scatter
+        owner = np.full(n_p2, -1, dtype=np.int64)
+        owner[p2.ravel()] = np.repeat(cell_local_polygon, p2.shape[1])
+        direct = np.zeros(n_p2, dtype=bool)
+        direct[self.p2_node[self.node_kind != INTERIOR]] = True
+        rows, cols, vals = [np.flatnonzero(direct)], [], [np.ones(int(direct.sum()))]
+        sfvem_of_p2 = np.full(n_p2, -1, dtype=np.int64)
+        sfvem_of_p2[self.p2_node] = np.arange(self.p2_node.size)
+        cols.append(sfvem_of_p2[rows[0]])
+        proj = self.projections
+        m, dm_dx, dm_dy = np.empty(6), np.empty(6), np.empty(6)
+        for node in np.flatnonzero(~direct & (owner >= 0)):
+            k = owner[node]
+            evaluate_monomials(x_p2[node], proj.centroid[k], proj.diameter[k], 2, m, dm_dx, dm_dy)
+            rows.append(np.full(self.dof_offsets[k + 1] - self.dof_offsets[k], node))
+            cols.append(self.polygon_dofs(k))
+            vals.append(m @ proj.Pi_nabla_of(k))
+        self._to_p2 = scipy.sparse.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(n_p2, self.n_local_nodes))
+        return self._to_p2
+
+    def to_function(self, x: PETSc.Vec, u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
+        """The P2 :class:`dolfinx.fem.Function` of an SFVEM solution (for XDMF/VTK output).
+
+        Parameters
+        ----------
+        x
+            Ghosted SFVEM vector (ghost values must be up to date).
+        u
+            Function on ``self.V`` to fill; created when omitted.
+        """
+        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
+        with x.localForm() as xl:
+            values = xl.array.reshape(-1, 2)
+        u.x.array[:] = (self._p2_interpolation() @ values).ravel()
+        u.x.scatter_forward()
+        return u
+
+    # ------------------------------------------------------------------ reporting
+    def summary(self) -> str:
+        """Number of unknowns, polygons and the distribution of l (collective)."""
+        hist = self.comm.allgather(self.projections.histogram())
+        total: dict[int, int] = {}
+        for h in hist:
+            for l, n in h.items():
+                total[l] = total.get(l, 0) + n
+        ls = ", ".join(f"l={l}: {n}" for l, n in sorted(total.items()))
+        return (f"SFVEM space: {self.polygon_mesh.n_polygons} polygons, {self.num_dofs_global} unknowns "
+                f"on {self.comm.size} rank(s); projection order {ls}")

@@ -1,0 +1,215 @@
+"""SFVEM discretization of a region-wise energy: residual and tangent into PETSc objects.
+
+This is the glue between the space (``space.py``), the compiled pointwise energy
+kernels (``kernels.py``) and the compiled polygon loops (``assemble.py``). The PETSc
+matrix is preallocated once in COO format (one dense block per polygon plus the
+diagonal) and refilled in place at every Newton iteration; the residual is assembled
+into the ghosted local form of a PETSc vector and accumulated over ranks.
+"""
+from __future__ import annotations
+
+import typing
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import _compat
+from .assemble import coo_pattern, residual_loop, tangent_loop, zero_constrained_rows
+from .energy import Energy
+from .kernels import EnergyKernels, compile_kernels
+from .mesh import PolygonMesh
+from .space import VEMSpace
+
+
+
+def _residual_at(k: EnergyKernels) -> tuple[int, int]:
+    """Offsets of P and T in the residual kernel output (T: -1 when absent)."""
+    assert k.residual_offsets["psi"] == 0
+    return k.residual_offsets["P"], k.residual_offsets.get("T", -1)
+
+
+def _tangent_at(k: EnergyKernels) -> tuple[int, int, int]:
+    """Offsets of D, A and B in the tangent kernel output (-1 when absent)."""
+    return k.tangent_offsets["D"], k.tangent_offsets.get("A", -1), k.tangent_offsets.get("B", -1)
+
+
+@dataclass
+class _Region:
+    tag: int
+    energy: Energy
+    kernels: EnergyKernels
+    polygons: np.ndarray     # local polygon indices (int64)
+
+
+@dataclass
+class AssemblyInfo:
+    """Diagnostics of one residual evaluation (global over ranks).
+
+    Attributes
+    ----------
+    energy : float
+        Total stored energy ∫ Ψ dΩ (Eq. 46).
+    min_J : float
+        Smallest J = det F over all quadrature points.
+    min_J_polygon : int
+        Global index of the polygon where it occurs.
+    min_J_tag : int
+        Its region tag.
+    """
+    energy: float
+    min_J: float
+    min_J_polygon: int
+    min_J_tag: int
+
+
+def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) -> None:
+    """Every region tag of the mesh has an energy, and every energy's tag exists."""
+    present = set(np.unique(tags).tolist())
+    missing = sorted(present - set(materials))
+    if missing:
+        raise ValueError(f"no material given for region tag(s) {missing}; mesh tags are {sorted(present)}")
+    unknown = sorted(set(materials) - present)
+    if unknown:
+        raise ValueError(f"material given for region tag(s) {unknown} that the mesh does not have; "
+                         f"mesh tags are {sorted(present)}")
+    for tag, energy in materials.items():
+        if not isinstance(energy, Energy):
+            raise ValueError(f"material of region {tag} must be an Energy, got {type(energy).__name__}")
+
+
+class SFVEMDiscretization:
+    """Order-2 SFVEM discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ on a polygon mesh.
+
+    Parameters
+    ----------
+    mesh
+        Polygon mesh with region tags.
+    materials
+        Region tag -> energy.
+    comm
+        Communicator.
+    l, l_min, quadrature_degree
+        Passed to :class:`VEMSpace`.
+    """
+
+    method = "vem"
+
+    def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
+                 *, l=None, l_min: int = 3, quadrature_degree: int | None = None, verbose: bool = True):
+        check_materials(mesh.tags, materials)
+        self.comm = comm
+        self.space = space = VEMSpace(mesh, comm, l=l, l_min=l_min, quadrature_degree=quadrature_degree,
+                                      verbose=verbose)
+        self.regions = [_Region(tag, energy, compile_kernels(energy, comm),
+                                np.flatnonzero(space.tags == tag).astype(np.int64))
+                        for tag, energy in sorted(materials.items())]
+        proj = space.projections
+        self._geometry = (space.dof_offsets, space.dofs, proj.l, proj.centroid, proj.diameter,
+                          proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, space.w_q)
+        nd = np.diff(space.dof_offsets)
+        self._coo_off = np.concatenate([[0], np.cumsum(4 * nd * nd)]).astype(np.int64)
+        self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
+        self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)
+
+    # ------------------------------------------------------------------ PETSc objects
+    def create_vector(self) -> PETSc.Vec:
+        return self.space.create_vector()
+
+    def create_matrix(self) -> PETSc.Mat:
+        """AIJ matrix with the COO pattern: polygon blocks, then the owned diagonal."""
+        space = self.space
+        n_owned, n_global = 2 * space.n_owned_nodes, space.num_dofs_global
+        A = PETSc.Mat().create(self.comm)
+        A.setSizes(((n_owned, n_global), (n_owned, n_global)))
+        A.setType(PETSc.Mat.Type.AIJ)
+        A.setBlockSize(2)
+        rows, cols = coo_pattern(space.dof_offsets, space.dofs, self._global_node.astype(np.int64), self._coo_off)
+        start = 2 * space.index_map.local_range[0]
+        diagonal = np.arange(start, start + n_owned, dtype=np.int32)
+        _compat.mat_set_preallocation_coo(A, np.concatenate([rows, diagonal]), np.concatenate([cols, diagonal]))
+        self._local_rows = self._local_row_of_coo(rows)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        return A
+
+    def _local_row_of_coo(self, rows_global: np.ndarray) -> np.ndarray:
+        """Local (blocked) unknown index of every COO entry's row."""
+        order = np.argsort(self._global_node)
+        node = order[np.searchsorted(self._global_node[order], rows_global // 2)]
+        return 2 * node + rows_global % 2
+
+    # ------------------------------------------------------------------ assembly
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
+        """Internal force vector b = ∂W/∂ũ (Eq. 52) at x (ghosts of x must be current)."""
+        stats = np.array([0.0, np.inf, -1.0])
+        with x.localForm() as xl, b.localForm() as bl:
+            bl.set(0.0)
+            u = xl.array_r.reshape(-1, 2)
+            R = bl.array.reshape(-1, 2)
+            for reg in self.regions:
+                k = reg.kernels
+                P_at, T_at = _residual_at(k)
+                c = k.pack_constants(reg.energy.params)
+                residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
+                              *self._geometry, u, R, stats)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self._gather_info(stats)
+
+    def _gather_info(self, stats: np.ndarray) -> AssemblyInfo:
+        energy = self.comm.allreduce(stats[0], op=MPI.SUM)
+        local = (stats[1], self.comm.rank)
+        min_J, rank = self.comm.allreduce(local, op=MPI.MINLOC)
+        k = int(stats[2])
+        where = (int(self.space.polygons[k]), int(self.space.tags[k])) if k >= 0 else (-1, -1)
+        polygon, tag = self.comm.bcast(where, root=rank)
+        return AssemblyInfo(energy, float(min_J), polygon, tag)
+
+    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
+        """Tangent (Eq. 56) at x into A; rows of constrained unknowns become identity rows.
+
+        Parameters
+        ----------
+        constrained : (2 n_local_nodes,) bool
+            Constrained unknowns in local (blocked) numbering, consistent across ranks.
+        """
+        values = self._values
+        with x.localForm() as xl:
+            u = xl.array_r.reshape(-1, 2)
+            for reg in self.regions:
+                k = reg.kernels
+                D_at, A_at, B_at = _tangent_at(k)
+                c = k.pack_constants(reg.energy.params)
+                tangent_loop(k.tangent, c, k.F_offset, k.G_offset, D_at, A_at, B_at, k.uses_gradient,
+                             reg.polygons, *self._geometry, u, values, self._coo_off)
+        n_blocks = self._coo_off[-1]
+        zero_constrained_rows(values, self._local_rows, constrained, n_blocks)
+        values[n_blocks:] = constrained[:2 * self.space.n_owned_nodes]
+        _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
+        A.assemble()
+
+    # ------------------------------------------------------------------ locating unknowns
+    def locate_dofs(self, marker=None, tags=None, component: int | None = None) -> np.ndarray:
+        """Local blocked unknowns (owned and ghost) at the nodes selected by marker/tags.
+
+        ``component`` None selects both displacement components.
+        """
+        nodes = self.space.locate_nodes(marker, tags)
+        comps = (0, 1) if component is None else (component,)
+        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+
+    @property
+    def n_owned_dofs(self) -> int:
+        return 2 * self.space.n_owned_nodes
+
+    @property
+    def num_dofs_global(self) -> int:
+        return self.space.num_dofs_global
+
+    def output_function(self, x: PETSc.Vec, u=None):
+        """The solution as a P2 DOLFINx Function on the sub-triangulation."""
+        return self.space.to_function(x, u)
+
+    @property
+    def dolfinx_mesh(self):
+        return self.space.mesh
