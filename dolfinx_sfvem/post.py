@@ -1,0 +1,135 @@
+"""Output of a load path: summary.json, CSV, XDMF and PNG pictures.
+
+Every file is written to a temporary name and renamed into place, so a run that is
+interrupted never leaves a half-written file behind. Only rank 0 writes JSON/CSV/PNG.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pathlib
+import typing
+
+import numpy as np
+from mpi4py import MPI
+
+
+def atomic_write_text(path: pathlib.Path, text: str) -> None:
+    """Write ``text`` to ``path`` via a temporary file and an atomic rename."""
+    path = pathlib.Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def write_json(path: pathlib.Path, data: typing.Mapping) -> None:
+    atomic_write_text(path, json.dumps(data, indent=1, default=_json_default) + "\n")
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating,)):
+        return float(obj)
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mapping]) -> None:
+    """One row per converged step: step, load, Newton iterations, reactions, extras."""
+    rows = [s for s in steps if s["converged"]]
+    names = sorted({n for s in rows for n in s.get("reaction", {})})
+    extras = sorted({k for s in rows for k in s.get("extra", {})})
+    header = ["step", "load", "newton_iterations"] + [f"{n}_R{c}" for n in names for c in "xy"] + extras
+    lines = []
+    for s in rows:
+        r = [s["step"], s["load"], s["newton_iterations"]]
+        r += [s["reaction"].get(n, [np.nan, np.nan])[c] for n in names for c in range(2)]
+        r += [s["extra"].get(k, np.nan) for k in extras]
+        lines.append(r)
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(header)
+    w.writerows(lines)
+    atomic_write_text(path, buf.getvalue())
+
+
+def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.ndarray,
+                           node_values: np.ndarray | None = None, title: str = "") -> None:
+    """PNG of the deformed polygon mesh, polygons coloured by region.
+
+    Parameters
+    ----------
+    polygon_mesh : PolygonMesh
+    displacement : (n_points, 2)
+        Displacement of every polygon-mesh point.
+    node_values : (n_points,), optional
+        A scalar (e.g. u_y) drawn as a contour on the deformed points instead of region colours.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    x = polygon_mesh.points + displacement
+    off, verts = polygon_mesh.offsets, polygon_mesh.vertices
+    polys = [x[verts[off[e]:off[e + 1]]] for e in range(polygon_mesh.n_polygons)]
+    fig, ax = plt.subplots(figsize=(8, 5), dpi=120)
+    tags = polygon_mesh.tags
+    colours = plt.get_cmap("Pastel1")(np.searchsorted(np.unique(tags), tags) % 9)
+    if node_values is not None:
+        tri = polygon_mesh.triangles
+        nodes = np.vstack([x, polygon_mesh.extra_points + _extra_displacement(polygon_mesh, displacement)])
+        values = np.concatenate([node_values, _extra_values(polygon_mesh, node_values)])
+        tpc = ax.tripcolor(nodes[:, 0], nodes[:, 1], tri, values, shading="gouraud", cmap="viridis")
+        fig.colorbar(tpc, ax=ax, shrink=0.8)
+        coll = PolyCollection(polys, facecolors="none", edgecolors="k", linewidths=0.2)
+    else:
+        coll = PolyCollection(polys, facecolors=colours, edgecolors="k", linewidths=0.3)
+    ax.add_collection(coll)
+    ax.autoscale()
+    ax.set_aspect("equal")
+    ax.set_title(title)
+    tmp = pathlib.Path(path).with_name(f".{pathlib.Path(path).name}.tmp.png")
+    fig.savefig(tmp, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+def _extra_displacement(polygon_mesh, displacement: np.ndarray) -> np.ndarray:
+    """Displacement of the fan centres: mean of their polygon's vertices (drawing only)."""
+    return _extra_values(polygon_mesh, displacement)
+
+
+def _extra_values(polygon_mesh, values: np.ndarray) -> np.ndarray:
+    n_extra = polygon_mesh.extra_points.shape[0]
+    if n_extra == 0:
+        return values[:0]
+    out = np.zeros((n_extra,) + values.shape[1:])
+    count = np.zeros(n_extra)
+    n = polygon_mesh.n_points
+    tri = polygon_mesh.triangles
+    for c in range(3):
+        is_extra = tri[:, c] >= n
+        for other in range(3):
+            if other != c:
+                np.add.at(out, tri[is_extra, c] - n, values[tri[is_extra, other]])
+                np.add.at(count, tri[is_extra, c] - n, 1.0)
+    return out / count.reshape((-1,) + (1,) * (values.ndim - 1))
+
+
+def gather_to_root(comm: MPI.Comm, indices: np.ndarray, values: np.ndarray, size: int) -> np.ndarray | None:
+    """Assemble a global array of ``size`` rows on rank 0 from (indices, values) pieces."""
+    pieces = comm.gather((indices, values), root=0)
+    if comm.rank != 0:
+        return None
+    out = np.full((size,) + values.shape[1:], np.nan)
+    for idx, val in pieces:
+        out[idx] = val
+    return out

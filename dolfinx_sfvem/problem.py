@@ -1,0 +1,339 @@
+"""A third-medium contact problem: mesh, region energies, boundary conditions, load path.
+
+Example
+-------
+>>> import dolfinx_sfvem as sf
+>>> mesh = sf.meshes.cbox(h_solid=0.05)                      # doctest: +SKIP
+>>> problem = sf.ContactProblem(mesh, {
+...     sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14),
+...     sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)})
+>>> problem.fix(lambda x: np.isclose(x[0], 0.0))
+>>> problem.prescribe(lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 0.5), uy=-0.5, name="load")
+>>> result = problem.solve(steps=50, out="out/cbox")
+"""
+from __future__ import annotations
+
+import pathlib
+import signal
+import time
+import typing
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import post
+from .energy import Energy
+from .mesh import PolygonMesh
+from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
+from .space import VERTEX
+
+Marker = typing.Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class BoundaryCondition:
+    """Prescribed displacement components on the nodes selected by ``marker`` and/or ``tags``.
+
+    ``values`` maps component (0 = x, 1 = y) to the value reached at load factor 1; it is
+    applied as ``load_factor * value``.
+    """
+    name: str
+    values: dict[int, float]
+    marker: Marker | None = None
+    tags: tuple[int, ...] | None = None
+
+
+@dataclass
+class Result:
+    """Outcome of :meth:`ContactProblem.solve`."""
+    converged: bool
+    load: float
+    steps: list[dict]
+    wall_time_s: float
+    summary: dict
+    message: str = ""
+
+
+class ContactProblem:
+    """Finite-strain (third medium) contact problem on a polygon mesh.
+
+    Parameters
+    ----------
+    mesh
+        Polygon mesh with region tags.
+    materials
+        Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
+    method
+        ``"vem"`` (order-2 SFVEM on the polygons).
+    comm
+        MPI communicator.
+    **options
+        Passed to the discretization (``l``, ``l_min``, ``quadrature_degree``, ``verbose``).
+    """
+
+    def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
+                 comm: MPI.Comm = MPI.COMM_WORLD, **options):
+        if method != "vem":
+            raise ValueError(f"unknown method {method!r}; use 'vem'")
+        from .vem import SFVEMDiscretization
+        self.method = method
+        self.mesh = mesh
+        self.materials = dict(materials)
+        self.comm = comm
+        self.verbose = options.get("verbose", True)
+        self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
+        self.bcs: list[BoundaryCondition] = []
+        self.x = self.disc.create_vector()
+        self.x.set(0.0)
+        self.parameters: dict[str, typing.Any] = {}
+
+    # ------------------------------------------------------------------ boundary conditions
+    def fix(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
+            components: typing.Iterable[int] = (0, 1), name: str = "fixed") -> BoundaryCondition:
+        """u_i = 0 for the given components on the selected nodes."""
+        return self._add(BoundaryCondition(name, {int(c): 0.0 for c in components}, marker,
+                                           None if tags is None else tuple(tags)))
+
+    def prescribe(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None, *,
+                  ux: float | None = None, uy: float | None = None, name: str = "load") -> BoundaryCondition:
+        """u_x = λ ux and/or u_y = λ uy on the selected nodes, λ the load factor."""
+        values = {c: float(v) for c, v in ((0, ux), (1, uy)) if v is not None}
+        if not values:
+            raise ValueError(f"boundary condition {name!r}: give ux and/or uy")
+        if not all(np.isfinite(v) for v in values.values()):
+            raise ValueError(f"boundary condition {name!r}: prescribed values must be finite, got {values}")
+        return self._add(BoundaryCondition(name, values, marker, None if tags is None else tuple(tags)))
+
+    def _add(self, bc: BoundaryCondition) -> BoundaryCondition:
+        if bc.marker is None and bc.tags is None:
+            raise ValueError(f"boundary condition {bc.name!r}: give a marker function and/or region tags")
+        if any(b.name == bc.name for b in self.bcs):
+            raise ValueError(f"boundary condition name {bc.name!r} used twice")
+        self.bcs.append(bc)
+        return bc
+
+    def _constraints(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Constrained mask (local), final values of owned constrained unknowns, dofs per BC."""
+        n_local = 2 * self.disc.space.n_local_nodes
+        constrained = np.zeros(n_local, dtype=bool)
+        final = np.zeros(n_local)
+        dofs_of = {}
+        for bc in self.bcs:
+            all_dofs = []
+            for comp, value in bc.values.items():
+                dofs = self.disc.locate_dofs(bc.marker, bc.tags, comp)
+                constrained[dofs] = True
+                final[dofs] = value
+                all_dofs.append(dofs)
+            dofs_of[bc.name] = np.concatenate(all_dofs)
+            if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
+                raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
+        owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
+        return constrained, final[owned], dofs_of
+
+    # ------------------------------------------------------------------ results
+    def reactions(self, dofs_of: dict[str, np.ndarray]) -> dict[str, list[float]]:
+        """Reaction force [R_x, R_y] on every boundary condition (sum of internal forces)."""
+        b = self.disc.create_vector()
+        self.disc.residual(self.x, b)
+        n_owned = self.disc.n_owned_dofs
+        with b.localForm() as bl:
+            r = bl.array_r
+            out = {}
+            for name, dofs in dofs_of.items():
+                own = dofs[dofs < n_owned]
+                out[name] = [self.comm.allreduce(float(r[own[own % 2 == c]].sum()), op=MPI.SUM) for c in (0, 1)]
+        b.destroy()
+        return out
+
+    def point_displacements(self) -> np.ndarray | None:
+        """Displacement (n_points, 2) of every polygon-mesh point, on rank 0 (None elsewhere)."""
+        space = self.disc.space
+        is_vertex = np.flatnonzero(space.node_kind == VERTEX)
+        with self.x.localForm() as xl:
+            u = xl.array_r.reshape(-1, 2)[is_vertex]
+        return post.gather_to_root(self.comm, space.node_point[is_vertex], u, self.mesh.n_points)
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
+              petsc_options: typing.Mapping[str, typing.Any] | None = None,
+              min_increment: float | None = None,
+              observers: typing.Mapping[str, typing.Callable[["ContactProblem"], float]] | None = None,
+              raise_on_failure: bool = False) -> Result:
+        """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
+
+        Parameters
+        ----------
+        steps
+            Number of nominal load increments.
+        out
+            Output directory (summary.json, load_path.csv, XDMF, PNG); None writes nothing.
+        petsc_options
+            PETSc options for SNES/KSP/PC (the command line works too).
+        min_increment
+            Smallest load-factor increment of the automatic cut-back (default (1/steps)/2¹⁰).
+        observers
+            Named scalar quantities recorded per converged step (e.g. a gap).
+        raise_on_failure
+            Raise :class:`SolveFailed` instead of returning a non-converged result.
+        """
+        t_start = time.perf_counter()
+        constrained, final, dofs_of = self._constraints()
+        newton = NewtonSolver(self.disc, constrained, petsc_options)
+        stepper = LoadStepper(steps, min_increment=min_increment)
+        writer = _RunWriter(self, out) if out is not None else None
+        records: list[dict] = []
+        observers = dict(observers or {})
+
+        def solve_to(load: float) -> NewtonResult:
+            return newton.solve(self.x, load * final)
+
+        def save():
+            return self.x.copy()
+
+        def restore(state):
+            state.copy(self.x)
+            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            state.destroy()
+
+        def record(load: float, res: NewtonResult, elapsed: float, converged: bool) -> StepRecord:
+            rec = StepRecord(step=sum(r["converged"] for r in records) + int(converged), load=load,
+                             newton_iterations=res.iterations, residual_norms=res.residual_norms,
+                             converged=converged, min_J=res.min_J, wall_time_s=elapsed)
+            return rec
+
+        def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
+            rec = record(load, res, elapsed, True)
+            rec.reaction = self.reactions(dofs_of)
+            rec.extra = {name: float(f(self)) for name, f in observers.items()}
+            records.append(asdict(rec))
+            self._progress(rec)
+            if writer is not None:
+                writer.step(records)
+
+        def on_failure(load: float, res: NewtonResult, elapsed: float) -> None:
+            rec = record(load, res, elapsed, False)
+            records.append(asdict(rec))
+            if self.verbose and self.comm.rank == 0:
+                print(f"  step to load {load:.5g} failed (SNES reason {res.reason}, {res.iterations} its, "
+                      f"min J {res.min_J:.3g}); cutting the increment", flush=True)
+
+        stop = _StopRequest()
+        message, load = "", 0.0
+        with stop:
+            try:
+                load = stepper.run(solve_to, save, restore, on_step, on_failure, should_stop=stop)
+            except SolveFailed as err:
+                message = str(err)
+                load = max([r["load"] for r in records if r["converged"]], default=0.0)
+                if raise_on_failure:
+                    self._finish(writer, records, t_start, load, message)
+                    raise
+        if stop.signalled:
+            message = f"stopped by signal {stop.signalled} at load factor {load:.6g}"
+        return self._finish(writer, records, t_start, load, message)
+
+    def _finish(self, writer, records, t_start, load, message) -> Result:
+        wall = time.perf_counter() - t_start
+        converged = load >= 1.0 - 1e-12 and not message
+        summary = self.summary(records, wall, converged, message)
+        if writer is not None:
+            writer.finish(summary)
+        if message and self.comm.rank == 0:
+            print(f"run stopped: {message}", flush=True)
+        return Result(converged, load, records, wall, summary, message)
+
+    def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
+        """The content of summary.json."""
+        return {
+            "method": self.method,
+            "dofs": int(self.disc.num_dofs_global),
+            "polygons": int(self.mesh.n_polygons),
+            "ranks": int(self.comm.size),
+            "wall_time_s": wall,
+            "converged": bool(converged),
+            "message": message,
+            "parameters": {
+                **self.parameters,
+                "materials": {str(tag): {"energy": e.name, **e.params} for tag, e in self.materials.items()},
+                "boundary_conditions": {bc.name: {"values": bc.values, "tags": bc.tags} for bc in self.bcs},
+            },
+            "steps": records,
+        }
+
+    def _progress(self, rec: StepRecord) -> None:
+        if not (self.verbose and self.comm.rank == 0):
+            return
+        res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
+        reac = "  ".join(f"R[{n}]=({v[0]:+.4e},{v[1]:+.4e})" for n, v in rec.reaction.items() if n != "fixed")
+        extra = "  ".join(f"{k}={v:.4e}" for k, v in rec.extra.items())
+        print(f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
+              f"min J {rec.min_J:.3f}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
+
+
+class _StopRequest:
+    """Context manager turning SIGINT/SIGTERM into a request to stop after the current step."""
+
+    def __init__(self):
+        self.signalled = 0
+        self._old = {}
+
+    def __call__(self) -> bool:
+        return bool(self.signalled)
+
+    def _handler(self, signum, frame):
+        self.signalled = signum
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._old[sig] = signal.signal(sig, self._handler)
+            except ValueError:          # not in the main thread
+                pass
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        return False
+
+
+class _RunWriter:
+    """Writes the outputs of a run as it goes (every converged step)."""
+
+    def __init__(self, problem: ContactProblem, out: str | pathlib.Path):
+        import dolfinx.fem
+        import dolfinx.io
+        self.problem = problem
+        self.out = pathlib.Path(out)
+        if problem.comm.rank == 0:
+            self.out.mkdir(parents=True, exist_ok=True)
+        problem.comm.barrier()
+        mesh = problem.disc.dolfinx_mesh
+        self.u_p2 = None
+        self.u_p1 = dolfinx.fem.Function(dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", 1)), name="u")
+        self.xdmf = dolfinx.io.XDMFFile(problem.comm, str(self.out / "displacement.xdmf"), "w")
+        self.xdmf.write_mesh(mesh)
+
+    def step(self, records: list[dict]) -> None:
+        p = self.problem
+        self.u_p2 = p.disc.output_function(p.x, self.u_p2)
+        self.u_p1.interpolate(self.u_p2)
+        self.xdmf.write_function(self.u_p1, records[-1]["load"])
+        partial = p.summary(records, float("nan"), False, "running")
+        if p.comm.rank == 0:
+            post.write_json(self.out / "summary.json", partial)
+            post.write_load_path_csv(self.out / "load_path.csv", records)
+
+    def finish(self, summary: dict) -> None:
+        p = self.problem
+        self.xdmf.close()
+        u = p.point_displacements()
+        if p.comm.rank == 0:
+            post.write_json(self.out / "summary.json", summary)
+            post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
+            post.plot_deformed_polygons(self.out / "deformed.png", p.mesh, u,
+                                        title=f"{p.method}: load factor {summary['steps'][-1]['load'] if summary['steps'] else 0:.3g}")
+            post.plot_deformed_polygons(self.out / "uy.png", p.mesh, u, node_values=u[:, 1], title="u_y")
