@@ -1,6 +1,34 @@
 """dolfinx-sfvem: third medium contact with the stabilization-free virtual element method.
 
-Order-2 SFVEM (Xu & Wriggers) on arbitrary polygonal meshes inside DOLFINx 0.5, with a
-P2 Lagrange FEM reference on the same UFL energy.
+Order-2 SFVEM (Xu & Wriggers) on arbitrary polygonal meshes inside DOLFINx 0.5, with the
+energy written once in UFL.
+
+Main entry points
+-----------------
+PolygonMesh
+    Polygonal mesh with region tags (validation, hanging nodes, sub-triangulation).
+Hyperelastic, ThirdMedium, UserEnergy
+    Region energies (paper Eqs. 2-17).
+ContactProblem
+    Mesh + energies + boundary conditions + load path, solved with PETSc SNES.
+VEMSpace, SFVEMDiscretization
+    The discrete space and the residual/tangent assembly, for use in own scripts.
+linear_elastic_stiffness
+    The plane-strain linear-elastic SFVEM stiffness of one polygon.
+meshes
+    gmsh generators of the paper's geometries.
 """
+from . import meshes
+from .elasticity import linear_elastic_stiffness
+from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
+from .mesh import PolygonMesh
+from .problem import ContactProblem
+from .solver import SolveFailed, set_petsc_options
+from .space import VEMSpace
+from .vem import SFVEMDiscretization
+
 __version__ = "0.1.0"
+
+__all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
+           "VEMSpace", "SFVEMDiscretization", "linear_elastic_stiffness", "meshes", "SolveFailed",
+           "set_petsc_options"]
