@@ -239,3 +239,68 @@ def zero_constrained_rows(values, rows_local, constrained, coo_off_end):
     for p in range(coo_off_end):
         if constrained[rows_local[p]]:
             values[p] = 0.0
+
+
+@numba.njit(cache=True)
+def projected_fields(polygons, dof_off, dofs, l, xE, hE, pim_off, Pi_m, pin_off, Pi_nabla, q_off, x_q, u,
+                     u_q, grad_q):
+    """Π^∇_2 u (Eq. 36) and Π⁰_l ∇u (Eq. 43) at the quadrature points of ``polygons``.
+
+    Parameters
+    ----------
+    u : (n_local_nodes, 2)
+        Nodal DOF values.
+    u_q : (n_q, 2), grad_q : (n_q, 2, 2)
+        Output at the points ``x_q[q_off[e]:q_off[e + 1]]`` of every polygon e;
+        ``grad_q[q, i, j] = ∂u_i/∂X_j``.
+    """
+    lmax = l.max() if l.size else 2
+    nl_max = (max(lmax, 2) + 1) * (max(lmax, 2) + 2) // 2
+    m = np.empty(nl_max)
+    dm = np.empty((2, nl_max))
+    for e in polygons:
+        d0, d1 = dof_off[e], dof_off[e + 1]
+        nd = d1 - d0
+        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
+        Pn = Pi_nabla[pin_off[e]:pin_off[e + 1]].reshape(6, nd)
+        dphi = np.empty((2, nd))
+        d2phi = np.empty((2, 2, nd))
+        for q in range(q_off[e], q_off[e + 1]):
+            _projected_derivatives(x_q[q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
+            evaluate_monomials(x_q[q], xE[e], hE[e], 2, m, dm[0], dm[1])
+            for i in range(2):
+                s = 0.0
+                for a in range(nd):
+                    phi = 0.0
+                    for b in range(6):
+                        phi += m[b] * Pn[b, a]
+                    s += phi * u[dofs[d0 + a], i]
+                u_q[q, i] = s
+                for j in range(2):
+                    g = 0.0
+                    for a in range(nd):
+                        g += dphi[j, a] * u[dofs[d0 + a], i]
+                    grad_q[q, i, j] = g
+
+
+@numba.njit(cache=True)
+def load_loop(polygons, dof_off, dofs, xE, hE, pin_off, Pi_nabla, q_off, x_q, w_q, f_q, F):
+    """Add the load vector ∫_E f · Π^∇_2 v dΩ (body force of Eq. 1) of ``polygons`` to F.
+
+    ``f_q`` (n_q, 2) is the body force at the quadrature points; F (n_local_nodes, 2).
+    """
+    m = np.empty(6)
+    dmx = np.empty(6)
+    dmy = np.empty(6)
+    for e in polygons:
+        d0, d1 = dof_off[e], dof_off[e + 1]
+        nd = d1 - d0
+        Pn = Pi_nabla[pin_off[e]:pin_off[e + 1]].reshape(6, nd)
+        for q in range(q_off[e], q_off[e + 1]):
+            evaluate_monomials(x_q[q], xE[e], hE[e], 2, m, dmx, dmy)
+            for a in range(nd):
+                phi = 0.0
+                for b in range(6):
+                    phi += m[b] * Pn[b, a]
+                F[dofs[d0 + a], 0] += w_q[q] * f_q[q, 0] * phi
+                F[dofs[d0 + a], 1] += w_q[q] * f_q[q, 1] * phi

@@ -30,17 +30,19 @@ from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRe
 from .space import VERTEX
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
+Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
 
 
 @dataclass
 class BoundaryCondition:
     """Prescribed displacement components on the nodes selected by ``marker`` and/or ``tags``.
 
-    ``values`` maps component (0 = x, 1 = y) to the value reached at load factor 1; it is
-    applied as ``load_factor * value``.
+    ``values`` maps component (0 = x, 1 = y) to the value reached at load factor 1: a number
+    or a function of the coordinates ``x`` (2, n) returning (n,); it is applied as
+    ``load_factor * value``. At interior (mean) DOFs a function is averaged over the polygon.
     """
     name: str
-    values: dict[int, float]
+    values: dict[int, Value]
     marker: Marker | None = None
     tags: tuple[int, ...] | None = None
 
@@ -85,6 +87,7 @@ class ContactProblem:
         self.verbose = options.get("verbose", True)
         self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
         self.bcs: list[BoundaryCondition] = []
+        self.f_ext = None
         self.x = self.disc.create_vector()
         self.x.set(0.0)
         self.parameters: dict[str, typing.Any] = {}
@@ -97,12 +100,15 @@ class ContactProblem:
                                            None if tags is None else tuple(tags)))
 
     def prescribe(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None, *,
-                  ux: float | None = None, uy: float | None = None, name: str = "load") -> BoundaryCondition:
-        """u_x = λ ux and/or u_y = λ uy on the selected nodes, λ the load factor."""
-        values = {c: float(v) for c, v in ((0, ux), (1, uy)) if v is not None}
+                  ux: Value | None = None, uy: Value | None = None, name: str = "load") -> BoundaryCondition:
+        """u_x = λ ux and/or u_y = λ uy on the selected nodes, λ the load factor.
+
+        ``ux``/``uy`` are numbers or functions of the coordinates ``x`` (2, n) returning (n,).
+        """
+        values = {c: v if callable(v) else float(v) for c, v in ((0, ux), (1, uy)) if v is not None}
         if not values:
             raise ValueError(f"boundary condition {name!r}: give ux and/or uy")
-        if not all(np.isfinite(v) for v in values.values()):
+        if not all(callable(v) or np.isfinite(v) for v in values.values()):
             raise ValueError(f"boundary condition {name!r}: prescribed values must be finite, got {values}")
         return self._add(BoundaryCondition(name, values, marker, None if tags is None else tuple(tags)))
 
@@ -125,7 +131,7 @@ class ContactProblem:
             for comp, value in bc.values.items():
                 dofs = self.disc.locate_dofs(bc.marker, bc.tags, comp)
                 constrained[dofs] = True
-                final[dofs] = value
+                final[dofs] = self._node_values(value, dofs // 2, comp) if callable(value) else value
                 all_dofs.append(dofs)
             dofs_of[bc.name] = np.concatenate(all_dofs)
             if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
@@ -133,11 +139,30 @@ class ContactProblem:
         owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
         return constrained, final[owned], dofs_of
 
+    def _node_values(self, value: typing.Callable[[np.ndarray], np.ndarray], nodes: np.ndarray,
+                     component: int) -> np.ndarray:
+        """DOF values of a function: point values, and polygon means at interior nodes."""
+        space = self.disc.space
+        out = np.asarray(value(space.x_nodes[nodes].T), dtype=np.float64).reshape(-1)
+        interior_node = space.dofs[space.dof_offsets[1:] - 1]          # last DOF of each polygon
+        for k in np.flatnonzero(np.isin(interior_node, nodes)):
+            q = slice(space.q_offsets[k], space.q_offsets[k + 1])
+            mean = np.dot(space.w_q[q], value(space.x_q[q].T)) / space.w_q[q].sum()
+            out[nodes == interior_node[k]] = mean
+        return out
+
+    def body_force(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> None:
+        """Body force per unit reference area, ``f(x)`` (2, n) -> (2, n), scaled by the load factor."""
+        self.f_ext = self.disc.body_force_vector(f)
+
     # ------------------------------------------------------------------ results
-    def reactions(self, dofs_of: dict[str, np.ndarray]) -> dict[str, list[float]]:
-        """Reaction force [R_x, R_y] on every boundary condition (sum of internal forces)."""
+    def reactions(self, dofs_of: dict[str, np.ndarray], load: float = 1.0) -> dict[str, list[float]]:
+        """Reaction force [R_x, R_y] on every boundary condition: the sum over its unknowns of
+        internal minus external force at the current state and load factor."""
         b = self.disc.create_vector()
         self.disc.residual(self.x, b)
+        if self.f_ext is not None:
+            b.axpy(-load, self.f_ext)
         n_owned = self.disc.n_owned_dofs
         with b.localForm() as bl:
             r = bl.array_r
@@ -181,14 +206,14 @@ class ContactProblem:
         """
         t_start = time.perf_counter()
         constrained, final, dofs_of = self._constraints()
-        newton = NewtonSolver(self.disc, constrained, petsc_options)
+        newton = NewtonSolver(self.disc, constrained, petsc_options, self.f_ext)
         stepper = LoadStepper(steps, min_increment=min_increment)
         writer = _RunWriter(self, out) if out is not None else None
         records: list[dict] = []
         observers = dict(observers or {})
 
         def solve_to(load: float) -> NewtonResult:
-            return newton.solve(self.x, load * final)
+            return newton.solve(self.x, load * final, load)
 
         def save():
             return self.x.copy()
@@ -206,7 +231,7 @@ class ContactProblem:
 
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
-            rec.reaction = self.reactions(dofs_of)
+            rec.reaction = self.reactions(dofs_of, load)
             rec.extra = {name: float(f(self)) for name, f in observers.items()}
             records.append(asdict(rec))
             self._progress(rec)
@@ -258,7 +283,9 @@ class ContactProblem:
             "parameters": {
                 **self.parameters,
                 "materials": {str(tag): {"energy": e.name, **e.params} for tag, e in self.materials.items()},
-                "boundary_conditions": {bc.name: {"values": bc.values, "tags": bc.tags} for bc in self.bcs},
+                "boundary_conditions": {bc.name: {"values": {c: getattr(v, "__name__", "function") if callable(v) else v
+                                                             for c, v in bc.values.items()}, "tags": bc.tags}
+                                        for bc in self.bcs},
             },
             "steps": records,
         }

@@ -131,16 +131,20 @@ class NewtonSolver:
         Constrained unknowns (local numbering incl. ghosts, consistent across ranks).
     options
         PETSc options for this solver (override defaults and the command line).
+    f_ext
+        External force vector at load factor 1 (scaled by the load factor of each solve).
     """
 
     def __init__(self, disc: Discretization, constrained: np.ndarray,
-                 options: typing.Mapping[str, typing.Any] | None = None):
+                 options: typing.Mapping[str, typing.Any] | None = None, f_ext: PETSc.Vec | None = None):
         self.disc = disc
         self.comm = disc.comm
         self.constrained = constrained
         n_owned = disc.n_owned_dofs
         self._owned_constrained = np.flatnonzero(constrained[:n_owned])
         self.g = np.zeros(self._owned_constrained.size)
+        self.f_ext = f_ext
+        self.load = 1.0
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
         self.history: list[float] = []
@@ -157,6 +161,8 @@ class NewtonSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.disc.residual(x, b)
         self.last_info = info
+        if self.f_ext is not None:
+            b.axpy(-self.load, self.f_ext)
         with x.localForm() as xl:
             xc = xl.array_r[self._owned_constrained]
         b_arr = b.getArray()
@@ -168,9 +174,11 @@ class NewtonSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.disc.jacobian(x, A, self.constrained)
 
-    def solve(self, x: PETSc.Vec, g: np.ndarray) -> NewtonResult:
-        """Solve from the state ``x`` (updated in place) with constrained values ``g`` (owned)."""
+    def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
+        """Solve from the state ``x`` (updated in place) with constrained values ``g`` (owned)
+        and the external force scaled by ``load``."""
         self.g[:] = g
+        self.load = load
         self.history = []
         self.snes.solve(None, x)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

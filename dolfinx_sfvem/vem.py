@@ -16,7 +16,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
-from .assemble import coo_pattern, residual_loop, tangent_loop, zero_constrained_rows
+from .assemble import coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop, zero_constrained_rows
 from .energy import Energy
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
@@ -187,6 +187,54 @@ class SFVEMDiscretization:
         values[n_blocks:] = constrained[:2 * self.space.n_owned_nodes]
         _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
         A.assemble()
+
+    # ------------------------------------------------------------------ loads and fields
+    def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
+        """External force vector of a body force, ∫ f · Π^∇_2 v dΩ (the b-term of Eq. 1).
+
+        Parameters
+        ----------
+        f
+            Body force per unit reference area: ``f(x)`` with ``x`` of shape (2, n) returns (2, n).
+        """
+        space = self.space
+        f_q = np.ascontiguousarray(np.broadcast_to(np.asarray(f(space.x_q.T), dtype=np.float64),
+                                                   (2, space.x_q.shape[0])).T)
+        F = self.create_vector()
+        proj = space.projections
+        with F.localForm() as fl:
+            fl.set(0.0)
+            load_loop(np.arange(space.polygons.size), space.dof_offsets, space.dofs, proj.centroid, proj.diameter,
+                      proj.Pi_nabla_offsets, proj.Pi_nabla, space.q_offsets, space.x_q, space.w_q, f_q,
+                      fl.array.reshape(-1, 2))
+        F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return F
+
+    def fields_at_quadrature(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Π^∇_2 u (n_q, 2) and Π⁰_l∇u (n_q, 2, 2) at the local quadrature points ``space.x_q``."""
+        space = self.space
+        proj = space.projections
+        u_q = np.empty((space.x_q.shape[0], 2))
+        grad_q = np.empty((space.x_q.shape[0], 2, 2))
+        with x.localForm() as xl:
+            projected_fields(np.arange(space.polygons.size), space.dof_offsets, space.dofs, proj.l, proj.centroid,
+                             proj.diameter, proj.Pi_m_offsets, proj.Pi_m, proj.Pi_nabla_offsets, proj.Pi_nabla,
+                             space.q_offsets, space.x_q, xl.array_r.reshape(-1, 2), u_q, grad_q)
+        return u_q, grad_q
+
+    def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
+                    grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
+        """‖u − Π^∇_2 u_h‖_L2 and |u − u_h|_H1 := ‖∇u − Π⁰_l∇u_h‖_L2 over the whole mesh (collective).
+
+        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
+        """
+        u_q, grad_q = self.fields_at_quadrature(x)
+        X = self.space.x_q.T
+        w = self.space.w_q
+        e0 = np.sum(w * np.sum((np.asarray(u_exact(X)).T - u_q) ** 2, axis=1))
+        e1 = np.sum(w * np.sum((np.moveaxis(np.asarray(grad_exact(X)), -1, 0) - grad_q) ** 2, axis=(1, 2)))
+        return (float(np.sqrt(self.comm.allreduce(e0, op=MPI.SUM))),
+                float(np.sqrt(self.comm.allreduce(e1, op=MPI.SUM))))
 
     # ------------------------------------------------------------------ locating unknowns
     def locate_dofs(self, marker=None, tags=None, component: int | None = None) -> np.ndarray:
