@@ -27,7 +27,6 @@ from . import post
 from .energy import Energy
 from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
-from .space import VERTEX
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
@@ -122,7 +121,7 @@ class ContactProblem:
 
     def _constraints(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Constrained mask (local), final values of owned constrained unknowns, dofs per BC."""
-        n_local = 2 * self.disc.space.n_local_nodes
+        n_local = self.disc.n_local_dofs
         constrained = np.zeros(n_local, dtype=bool)
         final = np.zeros(n_local)
         dofs_of = {}
@@ -131,25 +130,13 @@ class ContactProblem:
             for comp, value in bc.values.items():
                 dofs = self.disc.locate_dofs(bc.marker, bc.tags, comp)
                 constrained[dofs] = True
-                final[dofs] = self._node_values(value, dofs // 2, comp) if callable(value) else value
+                final[dofs] = self.disc.dof_values(value, dofs) if callable(value) else value
                 all_dofs.append(dofs)
             dofs_of[bc.name] = np.concatenate(all_dofs)
             if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
                 raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
         owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
         return constrained, final[owned], dofs_of
-
-    def _node_values(self, value: typing.Callable[[np.ndarray], np.ndarray], nodes: np.ndarray,
-                     component: int) -> np.ndarray:
-        """DOF values of a function: point values, and polygon means at interior nodes."""
-        space = self.disc.space
-        out = np.asarray(value(space.x_nodes[nodes].T), dtype=np.float64).reshape(-1)
-        interior_node = space.dofs[space.dof_offsets[1:] - 1]          # last DOF of each polygon
-        for k in np.flatnonzero(np.isin(interior_node, nodes)):
-            q = slice(space.q_offsets[k], space.q_offsets[k + 1])
-            mean = np.dot(space.w_q[q], value(space.x_q[q].T)) / space.w_q[q].sum()
-            out[nodes == interior_node[k]] = mean
-        return out
 
     def body_force(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> None:
         """Body force per unit reference area, ``f(x)`` (2, n) -> (2, n), scaled by the load factor."""
@@ -174,12 +161,9 @@ class ContactProblem:
         return out
 
     def point_displacements(self) -> np.ndarray | None:
-        """Displacement (n_points, 2) of every polygon-mesh point, on rank 0 (None elsewhere)."""
-        space = self.disc.space
-        is_vertex = np.flatnonzero(space.node_kind == VERTEX)
-        with self.x.localForm() as xl:
-            u = xl.array_r.reshape(-1, 2)[is_vertex]
-        return post.gather_to_root(self.comm, space.node_point[is_vertex], u, self.mesh.n_points)
+        """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
+        indices, values = self.disc.output_point_displacements(self.x)
+        return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
 
     # ------------------------------------------------------------------ solve
     def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
@@ -275,7 +259,7 @@ class ContactProblem:
         return {
             "method": self.method,
             "dofs": int(self.disc.num_dofs_global),
-            "polygons": int(self.mesh.n_polygons),
+            **self.disc.describe(),
             "ranks": int(self.comm.size),
             "wall_time_s": wall,
             "converged": bool(converged),
@@ -361,6 +345,7 @@ class _RunWriter:
         if p.comm.rank == 0:
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
-            post.plot_deformed_polygons(self.out / "deformed.png", p.mesh, u,
+            post.plot_deformed_polygons(self.out / "deformed.png", p.disc.output_mesh, u,
                                         title=f"{p.method}: load factor {summary['steps'][-1]['load'] if summary['steps'] else 0:.3g}")
-            post.plot_deformed_polygons(self.out / "uy.png", p.mesh, u, node_values=u[:, 1], title="u_y")
+            post.plot_deformed_polygons(self.out / "uy.png", p.disc.output_mesh, u, node_values=u[:, 1],
+                                        title="u_y")

@@ -332,13 +332,16 @@ class VEMSpace:
         return u
 
     # ------------------------------------------------------------------ reporting
+    def l_histogram(self) -> dict[int, int]:
+        """Projection order l -> number of polygons, over all ranks (collective)."""
+        total: dict[int, int] = {}
+        for h in self.comm.allgather(self.projections.histogram()):
+            for l, n in h.items():
+                total[int(l)] = total.get(int(l), 0) + int(n)
+        return dict(sorted(total.items()))
+
     def summary(self) -> str:
         """Number of unknowns, polygons and the distribution of l (collective)."""
-        hist = self.comm.allgather(self.projections.histogram())
-        total: dict[int, int] = {}
-        for h in hist:
-            for l, n in h.items():
-                total[l] = total.get(l, 0) + n
-        ls = ", ".join(f"l={l}: {n}" for l, n in sorted(total.items()))
+        ls = ", ".join(f"l={l}: {n}" for l, n in self.l_histogram().items())
         return (f"SFVEM space: {self.polygon_mesh.n_polygons} polygons, {self.num_dofs_global} unknowns "
                 f"on {self.comm.size} rank(s); projection order {ls}")

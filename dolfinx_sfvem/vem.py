@@ -20,7 +20,7 @@ from .assemble import coo_pattern, load_loop, projected_fields, residual_loop, t
 from .energy import Energy
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
-from .space import VEMSpace
+from .space import VERTEX, VEMSpace
 
 
 
@@ -249,6 +249,40 @@ class SFVEMDiscretization:
     @property
     def n_owned_dofs(self) -> int:
         return 2 * self.space.n_owned_nodes
+
+    @property
+    def n_local_dofs(self) -> int:
+        """Owned and ghost unknowns of this rank."""
+        return 2 * self.space.n_local_nodes
+
+    def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
+        """DOF values of the function ``value(x) -> (n,)`` for one component at the unknowns ``dofs``:
+        point values at vertices/midpoints, polygon means (by quadrature) at interior DOFs."""
+        space = self.space
+        nodes = dofs // 2
+        out = np.asarray(value(space.x_nodes[nodes].T), dtype=np.float64).reshape(-1)
+        interior_node = space.dofs[space.dof_offsets[1:] - 1]          # last DOF of each polygon
+        for k in np.flatnonzero(np.isin(interior_node, nodes)):
+            q = slice(space.q_offsets[k], space.q_offsets[k + 1])
+            out[nodes == interior_node[k]] = np.dot(space.w_q[q], value(space.x_q[q].T)) / space.w_q[q].sum()
+        return out
+
+    @property
+    def output_mesh(self) -> PolygonMesh:
+        """The polygon mesh pictures are drawn on."""
+        return self.space.polygon_mesh
+
+    def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """(point indices of ``output_mesh``, displacements (k, 2)) known on this rank."""
+        space = self.space
+        is_vertex = np.flatnonzero(space.node_kind == VERTEX)
+        with x.localForm() as xl:
+            return space.node_point[is_vertex], xl.array_r.reshape(-1, 2)[is_vertex].copy()
+
+    def describe(self) -> dict:
+        """Mesh facts for summary.json."""
+        return {"polygons": int(self.space.polygon_mesh.n_polygons),
+                "projection_order_histogram": {str(k): v for k, v in self.space.l_histogram().items()}}
 
     @property
     def num_dofs_global(self) -> int:
