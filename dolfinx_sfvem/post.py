@@ -27,6 +27,14 @@ def atomic_write_text(path: pathlib.Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def write_npz(path: pathlib.Path, **arrays) -> None:
+    """``numpy.savez`` via a temporary file and an atomic rename."""
+    path = pathlib.Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+
+
 def write_json(path: pathlib.Path, data: typing.Mapping) -> None:
     atomic_write_text(path, json.dumps(data, indent=1, default=_json_default) + "\n")
 

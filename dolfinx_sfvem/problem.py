@@ -13,6 +13,7 @@ Example
 """
 from __future__ import annotations
 
+import json
 import pathlib
 import signal
 import time
@@ -27,6 +28,8 @@ from . import post
 from .energy import Energy
 from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
+
+CHECKPOINT = "checkpoint.npz"
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
@@ -170,7 +173,7 @@ class ContactProblem:
               petsc_options: typing.Mapping[str, typing.Any] | None = None,
               min_increment: float | None = None,
               observers: typing.Mapping[str, typing.Callable[["ContactProblem"], float]] | None = None,
-              raise_on_failure: bool = False) -> Result:
+              raise_on_failure: bool = False, resume: bool = False) -> Result:
         """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
 
         Parameters
@@ -187,13 +190,22 @@ class ContactProblem:
             Named scalar quantities recorded per converged step (e.g. a gap).
         raise_on_failure
             Raise :class:`SolveFailed` instead of returning a non-converged result.
+        resume
+            Continue the run saved in ``out`` (``checkpoint.npz`` and ``summary.json``, written
+            after every converged step) from its last converged step. With the same
+            ``steps`` the result equals that of an uninterrupted run.
         """
         t_start = time.perf_counter()
         constrained, final, dofs_of = self._constraints()
+        self._check_initial_state()
         newton = NewtonSolver(self.disc, constrained, petsc_options, self.f_ext)
         stepper = LoadStepper(steps, min_increment=min_increment)
-        writer = _RunWriter(self, out) if out is not None else None
         records: list[dict] = []
+        if resume:
+            if out is None:
+                raise ValueError("resume needs the output directory of the stopped run")
+            records = self._restore_checkpoint(pathlib.Path(out), stepper, steps)
+        writer = _RunWriter(self, out, stepper, append=resume) if out is not None else None
         observers = dict(observers or {})
 
         def solve_to(load: float) -> NewtonResult:
@@ -230,7 +242,7 @@ class ContactProblem:
                       f"min J {res.min_J:.3g}); cutting the increment", flush=True)
 
         stop = _StopRequest()
-        message, load = "", 0.0
+        message, load = "", stepper.load
         with stop:
             try:
                 load = stepper.run(solve_to, save, restore, on_step, on_failure, should_stop=stop)
@@ -243,6 +255,34 @@ class ContactProblem:
         if stop.signalled:
             message = f"stopped by signal {stop.signalled} at load factor {load:.6g}"
         return self._finish(writer, records, t_start, load, message)
+
+    def _check_initial_state(self) -> None:
+        """Reject a starting state with J <= 0 (inverted elements) or a non-finite energy."""
+        b = self.disc.create_vector()
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        info = self.disc.residual(self.x, b)
+        b.destroy()
+        if not (info.min_J > 0.0) or not np.isfinite(info.energy):
+            raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
+                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}")
+
+    def _restore_checkpoint(self, out: pathlib.Path, stepper: LoadStepper, steps: int) -> list[dict]:
+        """Load state, stepper state and converged records of a stopped run."""
+        path = out / CHECKPOINT
+        if not path.exists():
+            raise ValueError(f"cannot resume: {path} does not exist")
+        data = np.load(path)
+        if int(data["steps"]) != steps:
+            raise ValueError(f"cannot resume: the stopped run used {int(data['steps'])} steps, not {steps}")
+        self.disc.set_state(data["keys"], data["values"], self.x)
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        stepper.restore({k: float(data[k]) for k in ("load", "increment", "streak")})
+        with open(out / "summary.json") as f:
+            records = [r for r in json.load(f)["steps"] if r["converged"]]
+        records = [r for r in records if r["load"] <= stepper.load + 1e-14]
+        if self.comm.rank == 0 and self.verbose:
+            print(f"resuming from load factor {stepper.load:.6g} after {len(records)} converged steps", flush=True)
+        return records
 
     def _finish(self, writer, records, t_start, load, message) -> Result:
         wall = time.perf_counter() - t_start
@@ -314,10 +354,12 @@ class _StopRequest:
 class _RunWriter:
     """Writes the outputs of a run as it goes (every converged step)."""
 
-    def __init__(self, problem: ContactProblem, out: str | pathlib.Path):
+    def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
+                 append: bool = False):
         import dolfinx.fem
         import dolfinx.io
         self.problem = problem
+        self.stepper = stepper
         self.out = pathlib.Path(out)
         if problem.comm.rank == 0:
             self.out.mkdir(parents=True, exist_ok=True)
@@ -325,8 +367,10 @@ class _RunWriter:
         mesh = problem.disc.dolfinx_mesh
         self.u_p2 = None
         self.u_p1 = dolfinx.fem.Function(dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", 1)), name="u")
-        self.xdmf = dolfinx.io.XDMFFile(problem.comm, str(self.out / "displacement.xdmf"), "w")
-        self.xdmf.write_mesh(mesh)
+        xdmf_path = self.out / "displacement.xdmf"
+        self.xdmf = dolfinx.io.XDMFFile(problem.comm, str(xdmf_path), "a" if append and xdmf_path.exists() else "w")
+        if not (append and xdmf_path.exists()):
+            self.xdmf.write_mesh(mesh)
 
     def step(self, records: list[dict]) -> None:
         p = self.problem
@@ -334,7 +378,14 @@ class _RunWriter:
         self.u_p1.interpolate(self.u_p2)
         self.xdmf.write_function(self.u_p1, records[-1]["load"])
         partial = p.summary(records, float("nan"), False, "running")
+        keys, values = p.disc.get_state(p.x)
+        pieces = p.comm.gather((keys, values), root=0)
         if p.comm.rank == 0:
+            keys = np.concatenate([k for k, _ in pieces])
+            values = np.concatenate([v for _, v in pieces])
+            order = np.argsort(keys)
+            post.write_npz(self.out / CHECKPOINT, keys=keys[order], values=values[order],
+                           steps=round(1 / self.stepper.nominal), **self.stepper.state())
             post.write_json(self.out / "summary.json", partial)
             post.write_load_path_csv(self.out / "load_path.csv", records)
 

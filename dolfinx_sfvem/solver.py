@@ -206,11 +206,12 @@ class StepRecord:
 class LoadStepper:
     """Ramp the load factor λ from its start to 1 in ``steps`` equal increments.
 
-    A step that does not converge (SNES divergence, J <= 0 or NaN) is retried from the
-    last converged state with half the increment, down to ``min_increment``; after
+    A step that does not converge (SNES divergence, J <= 0 or NaN) is retried from the last
+    converged state with half the increment, down to ``min_increment``; after
     ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
     the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
-    raised; every converged step has already been handed to ``on_step``.
+    raised; every converged step has already been handed to ``on_step``. The stepper's
+    own state (:meth:`state`) is what a checkpoint needs to continue exactly.
     """
 
     def __init__(self, steps: int, *, min_increment: float | None = None, grow_after: int = 2,
@@ -223,39 +224,45 @@ class LoadStepper:
             raise ValueError(f"min_increment must be in (0, 1/steps], got {self.min_increment}")
         self.grow_after = grow_after
         self.max_attempts = max_attempts
+        self.load, self.increment, self.streak = 0.0, self.nominal, 0
+
+    def state(self) -> dict[str, float]:
+        return {"load": self.load, "increment": self.increment, "streak": self.streak}
+
+    def restore(self, state: typing.Mapping[str, float]) -> None:
+        self.load, self.increment, self.streak = float(state["load"]), float(state["increment"]), int(state["streak"])
 
     def run(self, solve_to: typing.Callable[[float], NewtonResult], save: typing.Callable[[], typing.Any],
             restore: typing.Callable[[typing.Any], None],
             on_step: typing.Callable[[float, NewtonResult, float], None],
             on_failure: typing.Callable[[float, NewtonResult, float], None] | None = None,
-            start: float = 0.0, should_stop: typing.Callable[[], bool] = lambda: False) -> float:
-        """Run the load path; returns the final load factor reached (1.0 on success)."""
-        load, dl, streak = start, self.nominal, 0
+            should_stop: typing.Callable[[], bool] = lambda: False) -> float:
+        """Run the load path from the current state; returns the load factor reached (1.0 on success)."""
         for _ in range(self.max_attempts):
-            if load >= 1.0 - 1e-12 or should_stop():
-                return load
-            target = min(load + dl, 1.0)
+            if self.load >= 1.0 - 1e-12 or should_stop():
+                return self.load
+            target = min(self.load + self.increment, 1.0)
             state = save()
             t0 = time.perf_counter()
             result = solve_to(target)
             elapsed = time.perf_counter() - t0
             if result.converged:
-                load = target
-                on_step(load, result, elapsed)
-                streak += 1
-                if dl < self.nominal and streak >= self.grow_after:
-                    dl, streak = min(2 * dl, self.nominal), 0
+                self.load = target
+                self.streak += 1
+                if self.increment < self.nominal and self.streak >= self.grow_after:
+                    self.increment, self.streak = min(2 * self.increment, self.nominal), 0
+                on_step(target, result, elapsed)
                 continue
             restore(state)
             if on_failure is not None:
                 on_failure(target, result, elapsed)
-            streak = 0
-            if dl / 2 < self.min_increment * (1 - 1e-12):
+            self.streak = 0
+            if self.increment / 2 < self.min_increment * (1 - 1e-12):
                 raise SolveFailed(
-                    f"load step to load factor {target:.6g} failed with the smallest increment {dl:.3g} "
-                    f"(SNES reason {result.reason}, {result.iterations} Newton iterations, last residual "
-                    f"{result.residual_norms[-1] if result.residual_norms else float('nan'):.3e}, "
+                    f"load step to load factor {target:.6g} failed with the smallest increment "
+                    f"{self.increment:.3g} (SNES reason {result.reason}, {result.iterations} Newton iterations, "
+                    f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
                     f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
-                    f"last converged load factor {load:.6g}")
-            dl /= 2
-        raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {load:.6g})")
+                    f"last converged load factor {self.load:.6g}")
+            self.increment /= 2
+        raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {self.load:.6g})")

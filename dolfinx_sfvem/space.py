@@ -44,6 +44,28 @@ def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     return shift + np.arange(total)
 
 
+def _vertex_positions(offsets: np.ndarray, polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions in the CSR vertex array of every vertex of ``polygons`` and of its successor."""
+    N = offsets[polygons + 1] - offsets[polygons]
+    this = _ranges(offsets[polygons], N)
+    local_i = _ranges(np.zeros_like(N), N)
+    return this, this - local_i + (local_i + 1) % np.repeat(N, N)
+
+
+class _GlobalEdges:
+    """Global numbering of the polygon edges of a mesh (unordered vertex pairs, sorted)."""
+
+    def __init__(self, mesh: PolygonMesh):
+        this, nxt = _vertex_positions(mesh.offsets, np.arange(mesh.n_polygons))
+        a, b = mesh.vertices[this], mesh.vertices[nxt]
+        self._n = mesh.n_points
+        self._keys = np.unique(np.minimum(a, b) * self._n + np.maximum(a, b))
+        self.n_edges = self._keys.size
+
+    def __call__(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self._keys, np.minimum(a, b) * self._n + np.maximum(a, b))
+
+
 class _EdgeLookup:
     """Map an (unordered) pair of input node indices to the local P2 node at its midpoint."""
 
@@ -105,6 +127,9 @@ class VEMSpace:
         VERTEX, MIDPOINT or INTERIOR.
     node_point : (n_local_nodes,) int64
         Index of the polygon-mesh point at each VERTEX node, -1 for the others.
+    node_key : (n_local_nodes,) int64
+        Partition-independent node id: the point index of a vertex, ``n_points`` + global
+        edge index of a midpoint, ``n_points + n_edges`` + global polygon index of an interior node.
     projections : Projections
         Π^∇_2 and Π⁰_l∇ of the local polygons.
     q_offsets, x_q, w_q
@@ -155,9 +180,8 @@ class VEMSpace:
         nd = 2 * N + 1
         self.dof_offsets = np.concatenate([[0], np.cumsum(nd)]).astype(np.int64)
         first = self.dof_offsets[:-1]
-        v = mesh.vertices[_ranges(mesh.offsets[P], N)]
-        local_i = _ranges(np.zeros_like(N), N)
-        v_next = mesh.vertices[_ranges(mesh.offsets[P], N) - local_i + (local_i + 1) % np.repeat(N, N)]
+        this, nxt = _vertex_positions(mesh.offsets, P)
+        v, v_next = mesh.vertices[this], mesh.vertices[nxt]
         a, b = mesh.interior_node[P, 0], mesh.interior_node[P, 1]
         interior = node_of_input[a]
         diagonal = a != b
@@ -168,9 +192,14 @@ class VEMSpace:
         at_vertex = _ranges(first, N)
         at_mid = _ranges(first + N, N)
         nodes[at_vertex], kind[at_vertex] = node_of_input[v], VERTEX
-        self._dof_point = np.full(self.dof_offsets[-1], -1, dtype=np.int64)
-        self._dof_point[at_vertex] = v
         nodes[at_mid], kind[at_mid] = edge_node(v, v_next), MIDPOINT
+        # partition-independent key of every DOF node (checkpoints): point index for vertices,
+        # then global edge index for midpoints, then global polygon index for interiors
+        n_pts, edge_index = mesh.n_points, _GlobalEdges(mesh)
+        self._dof_key = np.empty(self.dof_offsets[-1], dtype=np.int64)
+        self._dof_key[at_vertex] = v
+        self._dof_key[at_mid] = n_pts + edge_index(v, v_next)
+        self._dof_key[first + 2 * N] = n_pts + edge_index.n_edges + P
         nodes[first + 2 * N], kind[first + 2 * N] = interior, INTERIOR
         if np.any(nodes < 0):
             raise RuntimeError("a polygon node is missing from the sub-triangulation")
@@ -205,8 +234,9 @@ class VEMSpace:
         self.dofs = sfvem_of_p2[p2_nodes]
         self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
         self.node_kind[self.dofs] = kind
-        self.node_point = np.full(self.p2_node.size, -1, dtype=np.int64)   # mesh point of VERTEX nodes
-        self.node_point[self.dofs] = self._dof_point
+        self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
+        self.node_key[self.dofs] = self._dof_key
+        self.node_point = np.where(self.node_kind == VERTEX, self.node_key, -1)   # mesh point of VERTEX nodes
         self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :2].copy()
 
     # ------------------------------------------------------------------ sizes

@@ -267,6 +267,23 @@ class SFVEMDiscretization:
             out[nodes == interior_node[k]] = np.dot(space.w_q[q], value(space.x_q[q].T)) / space.w_q[q].sum()
         return out
 
+    def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2))."""
+        space = self.space
+        with x.localForm() as xl:
+            values = xl.array_r.reshape(-1, 2)[:space.n_owned_nodes].copy()
+        return space.node_key[:space.n_owned_nodes].copy(), values
+
+    def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
+        """Inverse of :meth:`get_state` for the full set of keys (any partition); ghosts updated."""
+        order = np.argsort(keys)
+        pos = np.searchsorted(keys, self.space.node_key, sorter=order)
+        found = order[np.minimum(pos, keys.size - 1)]
+        if keys.size == 0 or not np.array_equal(keys[found], self.space.node_key):
+            raise ValueError("the saved state does not belong to this mesh (node keys differ)")
+        with x.localForm() as xl:
+            xl.array[:] = values[found].ravel()
+
     @property
     def output_mesh(self) -> PolygonMesh:
         """The polygon mesh pictures are drawn on."""
