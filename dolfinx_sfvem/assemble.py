@@ -74,6 +74,30 @@ def _polygon_block(Pi_m_flat, pim_off, e, l, nd):
 
 
 @numba.njit(cache=True)
+def _gather(u, dofs, d0, nd):
+    """Nodal values (nd, 2) of one polygon from the local array u (n_local_nodes, 2)."""
+    ue = np.empty((nd, 2))
+    for a in range(nd):
+        ue[a, 0] = u[dofs[d0 + a], 0]
+        ue[a, 1] = u[dofs[d0 + a], 1]
+    return ue
+
+
+@numba.njit(cache=True)
+def _monomial_scratch(l):
+    """Work arrays for the monomials (and derivatives) of the largest degree in ``l`` (at least 2)."""
+    k = max(l.max() if l.size else 2, 2)
+    n = (k + 1) * (k + 2) // 2
+    return np.empty(n), np.empty((2, n))
+
+
+@numba.njit(cache=True)
+def _ufcx_arguments():
+    """The unused coefficient, coordinate, entity and permutation arguments of a ufcx kernel."""
+    return np.zeros(1), np.zeros(9), np.zeros(1, dtype=np.int32), np.zeros(1, dtype=np.uint8)
+
+
+@numba.njit(cache=True)
 def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
                   dof_off, dofs, l, xE, hE, pim_off, Pi_m, q_off, x_q, w_q, u, R, stats):
     """Add the residual (Eq. 52) of ``polygons`` to ``R`` and accumulate diagnostics.
@@ -92,21 +116,12 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
         In/out: [energy Σ w Ψ, min J, local polygon index of min J].
     """
     out = np.zeros(13)
-    w_ = np.zeros(1)
-    x_ = np.zeros(9)
-    ei = np.zeros(1, dtype=np.int32)
-    perm = np.zeros(1, dtype=np.uint8)
-    lmax = l.max() if l.size else 1
-    nl_max = (lmax + 1) * (lmax + 2) // 2
-    m = np.empty(nl_max)
-    dm = np.empty((2, nl_max))
+    w_, x_, ei, perm = _ufcx_arguments()
+    m, dm = _monomial_scratch(l)
     for e in polygons:
         d0, d1 = dof_off[e], dof_off[e + 1]
         nd = d1 - d0
-        ue = np.empty((nd, 2))
-        for a in range(nd):
-            ue[a, 0] = u[dofs[d0 + a], 0]
-            ue[a, 1] = u[dofs[d0 + a], 1]
+        ue = _gather(u, dofs, d0, nd)
         Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
         dphi = np.empty((2, nd))
         d2phi = np.empty((2, 2, nd))
@@ -143,23 +158,14 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
     ``values[coo_off[e]:coo_off[e] + (2 nd)²]``.
     """
     out = np.zeros(124)
-    w_ = np.zeros(1)
-    x_ = np.zeros(9)
-    ei = np.zeros(1, dtype=np.int32)
-    perm = np.zeros(1, dtype=np.uint8)
-    lmax = l.max() if l.size else 1
-    nl_max = (lmax + 1) * (lmax + 2) // 2
-    m = np.empty(nl_max)
-    dm = np.empty((2, nl_max))
+    w_, x_, ei, perm = _ufcx_arguments()
+    m, dm = _monomial_scratch(l)
     nphi = 6 if uses_gradient else 2
     C = np.empty((2, 2, nphi, nphi))
     for e in polygons:
         d0, d1 = dof_off[e], dof_off[e + 1]
         nd = d1 - d0
-        ue = np.empty((nd, 2))
-        for a in range(nd):
-            ue[a, 0] = u[dofs[d0 + a], 0]
-            ue[a, 1] = u[dofs[d0 + a], 1]
+        ue = _gather(u, dofs, d0, nd)
         Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
         dphi = np.empty((2, nd))
         d2phi = np.empty((2, 2, nd))
@@ -254,13 +260,11 @@ def projected_fields(polygons, dof_off, dofs, l, xE, hE, pim_off, Pi_m, pin_off,
         Output at the points ``x_q[q_off[e]:q_off[e + 1]]`` of every polygon e;
         ``grad_q[q, i, j] = ∂u_i/∂X_j``.
     """
-    lmax = l.max() if l.size else 2
-    nl_max = (max(lmax, 2) + 1) * (max(lmax, 2) + 2) // 2
-    m = np.empty(nl_max)
-    dm = np.empty((2, nl_max))
+    m, dm = _monomial_scratch(l)
     for e in polygons:
         d0, d1 = dof_off[e], dof_off[e + 1]
         nd = d1 - d0
+        ue = _gather(u, dofs, d0, nd)
         Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
         Pn = Pi_nabla[pin_off[e]:pin_off[e + 1]].reshape(6, nd)
         dphi = np.empty((2, nd))
@@ -274,12 +278,12 @@ def projected_fields(polygons, dof_off, dofs, l, xE, hE, pim_off, Pi_m, pin_off,
                     phi = 0.0
                     for b in range(6):
                         phi += m[b] * Pn[b, a]
-                    s += phi * u[dofs[d0 + a], i]
+                    s += phi * ue[a, i]
                 u_q[q, i] = s
                 for j in range(2):
                     g = 0.0
                     for a in range(nd):
-                        g += dphi[j, a] * u[dofs[d0 + a], i]
+                        g += dphi[j, a] * ue[a, i]
                     grad_q[q, i, j] = g
 
 
