@@ -28,7 +28,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(MPIRUN) $(PY) demos/cbox.py --method vem --uy -0.5 --steps 20 --out $(OUT)/cbox
+	$(MPIRUN) $(PY) demos/cbox.py --method vem --uy -0.5 --steps 25 --out $(OUT)/cbox
 
 test: test-serial test-mpi
 

@@ -1,0 +1,215 @@
+"""Command line and driver shared by the demos.
+
+Every demo builds its parser with :func:`parser` (the options below), parses it with
+:func:`parse_args`, builds a :class:`dolfinx_sfvem.ContactProblem` and hands it to
+:func:`run`; its ``__main__`` block is ``sys.exit(exit_code(main))``.
+
+Shared options
+--------------
+``--method`` (vem), ``--steps``, ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
+``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
+regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the stopped run
+whose outputs are in DIR from its last converged step; give the same options as that run). Every other argument starting with a
+single ``-`` is a PETSc option (``-snes_monitor``, ``-ksp_type gmres``,
+``-pc_factor_mat_solver_type superlu_dist``, ...) and goes to PETSc's options database.
+
+Exit codes
+----------
+0 the load path was completed; 1 it was not (the converged steps are kept in the output
+directory); 2 invalid input (argparse errors, or a ``ValueError`` / ``SolveFailed`` raised by
+the library), reported on stderr without a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import pathlib
+import sys
+import typing
+
+import numpy as np
+from mpi4py import MPI
+
+import dolfinx_sfvem as sf
+
+METHODS = ("vem",)
+REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
+
+
+# --------------------------------------------------------------------------- argument types
+def _number(kind: type, accept: typing.Callable[[float], bool], requirement: str) -> typing.Callable[[str], float]:
+    """An argparse ``type`` parsing a finite ``kind`` that satisfies ``accept``."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {requirement}, got {text!r}") from None
+        if not (math.isfinite(value) and accept(value)):
+            raise argparse.ArgumentTypeError(f"must be {requirement}, got {text}")
+        return value
+    return parse
+
+
+positive_int = _number(int, lambda v: v >= 1, "an integer >= 1")
+finite_float = _number(float, lambda v: True, "a finite number")
+positive_float = _number(float, lambda v: v > 0, "a number > 0")
+non_negative_float = _number(float, lambda v: v >= 0, "a number >= 0")
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser that prints help and errors on MPI rank 0 only."""
+
+    def _print_message(self, message: str, file=None) -> None:
+        if MPI.COMM_WORLD.rank == 0:
+            super()._print_message(message, file)
+
+
+# --------------------------------------------------------------------------- command line
+def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Sequence[int] = (1,),
+           mesh_help: str = "mesh variant", h: float = 0.05, h_max: float = math.inf, gamma: float = 1e-5,
+           alpha_r: float = 1.0, regularization: str = "rotation") -> argparse.ArgumentParser:
+    """The parser with the options every demo shares; a demo adds its own to it.
+
+    Parameters
+    ----------
+    name
+        Demo name; the default output directory is ``out/<name>``.
+    description
+        Shown by ``--help`` (the demo's docstring).
+    steps, meshes, h, gamma, alpha_r, regularization
+        The demo's defaults; ``meshes`` lists the valid ``--mesh`` variants, the first is the default.
+    h_max
+        Largest accepted ``--h`` (a mesh must resolve the thinnest part of the geometry).
+    mesh_help
+        What ``--mesh`` selects in this demo.
+    """
+    p = _Parser(prog=f"{name}.py", description=description, allow_abbrev=False,
+                formatter_class=argparse.RawDescriptionHelpFormatter,
+                epilog="Arguments starting with a single '-' (e.g. -snes_monitor -ksp_type gmres) are PETSc options.")
+    p.add_argument("--method", choices=METHODS, default=METHODS[0], help="discretization (default %(default)s)")
+    p.add_argument("--steps", type=positive_int, default=steps, help="number of load steps (default %(default)s)")
+    p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out") / name,
+                   help="output directory (default %(default)s)")
+    p.add_argument("--mesh", type=int, choices=tuple(meshes), default=meshes[0],
+                   help=f"{mesh_help} (default %(default)s)")
+    h_range = "a number > 0" if h_max == math.inf else f"a number in (0, {h_max:g}]"
+    p.add_argument("--h", type=_number(float, lambda v: 0 < v <= h_max, h_range), default=h,
+                   help=f"mesh size, {h_range} (default %(default)s)")
+    p.add_argument("--gamma", type=positive_float, default=gamma,
+                   help="third-medium scaling gamma > 0 (default %(default)s)")
+    p.add_argument("--alpha-r", type=non_negative_float, default=alpha_r,
+                   help="regularization weight alpha_r >= 0 (default %(default)s)")
+    p.add_argument("--regularization", choices=REGULARIZATIONS, default=regularization,
+                   help="regularization of the medium, paper Table 1 (default %(default)s)")
+    p.add_argument("--beta", type=non_negative_float, default=None,
+                   help="switch on the exp(-beta J) scaling of the regularization (default off)")
+    p.add_argument("--quiet", action="store_true", help="no progress output, only the final lines")
+    p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
+                   help="continue the stopped run in DIR from its last converged step (same options as that run)")
+    return p
+
+
+def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
+    """Parse the command line; PETSc options go to PETSc's database and to ``args.petsc_options``.
+
+    Unknown ``--options`` and stray positional arguments are errors (exit code 2).
+    """
+    args, rest = p.parse_known_args(argv)
+    for k, token in enumerate(rest):
+        if token.startswith("--"):
+            p.error(f"unrecognized argument {token!r} (PETSc options start with a single '-')")
+        if not _is_option_name(token) and (k == 0 or not _is_option_name(rest[k - 1])):
+            p.error(f"unexpected argument {token!r} (not the value of a PETSc option)")
+    sf.set_petsc_options(rest)
+    args.petsc_options = rest
+    if args.resume is not None:
+        args.out = args.resume
+    return args
+
+
+def _is_option_name(token: str) -> bool:
+    """``-name`` but not a negative number (which is an option's value)."""
+    try:
+        float(token)
+    except ValueError:
+        return token.startswith("-")
+    return False
+
+
+def third_medium(args: argparse.Namespace, mu: float) -> sf.ThirdMedium:
+    """The third medium of the command line (``--gamma --alpha-r --regularization --beta``)."""
+    return sf.ThirdMedium(mu=mu, gamma=args.gamma, alpha_r=args.alpha_r,
+                          regularization=args.regularization, beta=args.beta)
+
+
+# --------------------------------------------------------------------------- markers and observers
+def at_point(xy: typing.Sequence[float], tol: float = 1e-10) -> typing.Callable[[np.ndarray], np.ndarray]:
+    """Marker of the nodes at the point ``xy``."""
+    return lambda x: np.hypot(x[0] - xy[0], x[1] - xy[1]) <= tol
+
+
+def on_segment(a: typing.Sequence[float], b: typing.Sequence[float],
+               tol: float = 1e-10) -> typing.Callable[[np.ndarray], np.ndarray]:
+    """Marker of the nodes on the straight segment from ``a`` to ``b``."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+
+    def marker(x: np.ndarray) -> np.ndarray:
+        p = x[:2].T
+        s = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        return np.linalg.norm(p - (a + s[:, None] * (b - a)), axis=1) <= tol
+    return marker
+
+
+def displacement_observer(problem: sf.ContactProblem, marker: typing.Callable[[np.ndarray], np.ndarray],
+                          component: int) -> typing.Callable[[sf.ContactProblem], float]:
+    """Observer returning displacement component ``component`` at the one node selected by ``marker``.
+
+    Raises
+    ------
+    ValueError
+        If the marker does not select exactly one node.
+    """
+    dofs = problem.disc.locate_dofs(marker, component=component)
+    owned = dofs[dofs < problem.disc.n_owned_dofs]
+    count = problem.comm.allreduce(owned.size, op=MPI.SUM)
+    if count != 1:
+        raise ValueError(f"a displacement observer needs exactly one node, the marker selects {count}")
+
+    def observe(p: sf.ContactProblem) -> float:
+        with p.x.localForm() as xl:
+            return p.comm.allreduce(float(xl.array_r[owned].sum()), op=MPI.SUM)
+    return observe
+
+
+# --------------------------------------------------------------------------- driver
+def run(problem: sf.ContactProblem, args: argparse.Namespace,
+        observers: typing.Mapping[str, typing.Callable[[sf.ContactProblem], float]] | None = None) -> int:
+    """Solve the load path, write the outputs to ``args.out`` and report.
+
+    The command-line arguments (except ``--out`` and ``--quiet``) are stored in the
+    "parameters" of summary.json.
+
+    Returns
+    -------
+    int
+        Exit code: 0 if the full load was reached, 1 otherwise.
+    """
+    problem.parameters.update({k: v for k, v in vars(args).items() if k not in ("out", "quiet", "resume")})
+    result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None)
+    if problem.comm.rank == 0:
+        files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
+        print(f"outputs in {args.out}/: {', '.join(files)}")
+        print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'} | "
+              f"wall time: {result.wall_time_s:.1f} s | dofs: {result.summary['dofs']}", flush=True)
+    return 0 if result.converged else 1
+
+
+def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
+              argv: typing.Sequence[str] | None = None) -> int:
+    """Run a demo's ``main(argv)``; expected failures become a message on stderr and exit code 2."""
+    try:
+        return main(argv)
+    except (ValueError, sf.SolveFailed) as err:
+        if MPI.COMM_WORLD.rank == 0:
+            print(f"error: {err}", file=sys.stderr, flush=True)
+        return 2

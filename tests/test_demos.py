@@ -1,0 +1,109 @@
+"""The demos as a user runs them: a subprocess per run, checked through exit code, stderr and
+the files written (summary.json, load_path.csv, XDMF, PNG)."""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
+
+#: a short C-box load path: before contact, coarse mesh, a few seconds
+SMALL = ["--uy", "-0.1", "--steps", "3", "--h", "0.1", "--quiet"]
+
+
+def run_demo(name: str, *args: str, out: pathlib.Path | None = None) -> subprocess.CompletedProcess:
+    """Run ``demos/<name>.py`` serially with the given arguments (and ``--out out``)."""
+    cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args] + (["--out", str(out)] if out else [])
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+
+
+def converged_steps(summary: dict) -> list[dict]:
+    return [s for s in summary["steps"] if s["converged"]]
+
+
+def csv_rows(path: pathlib.Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_cbox_outputs(tmp_path):
+    proc = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "converged: yes" in proc.stdout.splitlines()[-1]
+
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("method", "dofs", "wall_time_s", "parameters", "steps", "converged"):
+        assert key in summary, key
+    assert summary["method"] == "vem" and summary["converged"] and summary["dofs"] > 0
+    params = summary["parameters"]
+    assert {"uy": -0.1, "mesh": 1, "h": 0.1, "gamma": 1e-5, "alpha_r": 1.0, "regularization": "rotation",
+            "beta": None}.items() <= params.items()
+
+    steps = converged_steps(summary)
+    assert len(steps) == 3
+    for step in steps:
+        for key in ("load", "newton_iterations", "residual_norms", "reaction", "converged"):
+            assert key in step, key
+        assert len(step["residual_norms"]) == step["newton_iterations"] + 1
+        assert set(step["reaction"]) == {"fixed", "load"}
+    assert steps[-1]["load"] == pytest.approx(1.0)
+    assert steps[-1]["extra"]["tip_uy"] == pytest.approx(-0.1, abs=1e-9)
+    assert [s["extra"]["tip_uy"] for s in steps] == pytest.approx([-0.1 * s["load"] for s in steps], abs=1e-9)
+    assert steps[-1]["reaction"]["load"][1] < 0          # the tip is pulled down
+
+    rows = csv_rows(tmp_path / "load_path.csv")
+    assert len(rows) == len(steps)
+    assert float(rows[-1]["tip_uy"]) == pytest.approx(-0.1, abs=1e-9)
+    for name in ("deformed.png", "uy.png", "displacement.xdmf", "displacement.h5"):
+        assert (tmp_path / name).stat().st_size > 0, name
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--steps", "0"], "argument --steps: must be an integer >= 1"),
+    (["--gamma", "-1"], "argument --gamma: must be a number > 0"),
+    (["--h", "0.5"], "argument --h: must be a number in (0, 0.1]"),
+    (["--regularization", "foo"], "argument --regularization: invalid choice"),
+    (["--stepz", "3"], "unrecognized argument '--stepz'"),
+])
+def test_cbox_rejects_bad_input(tmp_path, args, message):
+    proc = run_demo("cbox", *args, out=tmp_path)
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_petsc_options_reach_snes(tmp_path):
+    """One Newton iteration per attempt cannot converge even the smallest cut-back
+    increment: the run stops with exit code 1 and keeps its (failed) history."""
+    proc = run_demo("cbox", "--uy", "-1", "--steps", "2", "--h", "0.1", "--quiet", "-snes_max_it", "1",
+                    out=tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "converged: no" in proc.stdout.splitlines()[-1]
+
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert not summary["converged"] and "failed" in summary["message"]
+    assert summary["parameters"]["petsc_options"] == ["-snes_max_it", "1"]
+    assert summary["steps"] and all(s["newton_iterations"] <= 1 for s in summary["steps"])
+    assert len(csv_rows(tmp_path / "load_path.csv")) == len(converged_steps(summary))
+
+
+@pytest.mark.parametrize("error", ["ValueError", "SolveFailed"])
+def test_expected_errors_become_exit_code_2(capsys, error):
+    spec = importlib.util.spec_from_file_location("_common", DEMOS / "_common.py")
+    common = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(common)
+    exception = ValueError if error == "ValueError" else common.sf.SolveFailed
+
+    def main(argv):
+        raise exception("polygon 7: self-intersection")
+
+    assert common.exit_code(main) == 2
+    assert capsys.readouterr().err.strip() == "error: polygon 7: self-intersection"
