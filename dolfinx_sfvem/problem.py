@@ -70,24 +70,32 @@ class ContactProblem:
     materials
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
     method
-        ``"vem"`` (order-2 SFVEM on the polygons).
+        ``"vem"`` (order-2 SFVEM on the polygons) or ``"fem"`` (P2 Lagrange triangles on the
+        same geometry and regions, :class:`~dolfinx_sfvem.fem.P2Discretization`).
     comm
         MPI communicator.
     **options
-        Passed to the discretization (``l``, ``l_min``, ``quadrature_degree``, ``verbose``).
+        Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
+        ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
+        None: matched to the SFVEM unknowns of ``mesh``, see
+        :func:`~dolfinx_sfvem.remesh.matched_triangulation`).
     """
 
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
                  comm: MPI.Comm = MPI.COMM_WORLD, **options):
-        if method != "vem":
-            raise ValueError(f"unknown method {method!r}; use 'vem'")
-        from .vem import SFVEMDiscretization
+        if method not in ("vem", "fem"):
+            raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         self.method = method
         self.mesh = mesh
         self.materials = dict(materials)
         self.comm = comm
         self.verbose = options.get("verbose", True)
-        self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
+        if method == "vem":
+            from .vem import SFVEMDiscretization
+            self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
+        else:
+            from .fem import P2Discretization
+            self.disc = P2Discretization.from_polygon_mesh(mesh, self.materials, comm, **options)
         self.bcs: list[BoundaryCondition] = []
         self.f_ext = None
         self.x = self.disc.create_vector()
@@ -140,6 +148,15 @@ class ContactProblem:
                 raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
         owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
         return constrained, final[owned], dofs_of
+
+    def set_displacement(self, ux: Value = 0.0, uy: Value = 0.0) -> None:
+        """Set the current state (e.g. an initial guess or a pre-deformation): ``ux``/``uy`` are
+        numbers or functions of the coordinates ``x`` (2, n) returning (n,)."""
+        all_dofs = np.arange(self.disc.n_local_dofs)
+        with self.x.localForm() as xl:
+            for comp, value in ((0, ux), (1, uy)):
+                dofs = all_dofs[comp::2]
+                xl.array[dofs] = self.disc.dof_values(value, dofs) if callable(value) else float(value)
 
     def body_force(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> None:
         """Body force per unit reference area, ``f(x)`` (2, n) -> (2, n), scaled by the load factor."""
@@ -247,7 +264,9 @@ class ContactProblem:
             try:
                 load = stepper.run(solve_to, save, restore, on_step, on_failure, should_stop=stop)
             except SolveFailed as err:
-                message = str(err)
+                n_done = sum(r["converged"] for r in records)
+                message = f"step {n_done + 1}: {err}"
+                err.args = (message,)
                 load = max([r["load"] for r in records if r["converged"]], default=0.0)
                 if raise_on_failure:
                     self._finish(writer, records, t_start, load, message)
