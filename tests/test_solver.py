@@ -1,0 +1,217 @@
+"""Newton solver and load stepping (DESIGN §6, §8; paper §4.3, Eqs. 52-56 solved by Newton).
+
+- Newton converges quadratically in the contact phase of a small C-box (paper §5.2).
+- A step that fails is cut back and retried from the last converged state; when the smallest
+  increment fails too, the run stops with a message naming the load factor, keeping every
+  converged step (Result, summary.json, load_path.csv), or raises SolveFailed on request.
+- PETSc options given from Python to one solve do not leak into later solves.
+- A boundary condition that selects no degree of freedom is an error naming it.
+"""
+import csv
+import functools
+import json
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem import meshes
+
+COMM = MPI.COMM_SELF
+SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
+BLOCK_HEIGHT = 0.2
+#: pure Newton (no line search), stopped just above round-off so that the last residuals of
+#: every step show the asymptotic rate and the final one sits at the round-off level
+PURE_NEWTON = {"snes_linesearch_type": "basic", "snes_rtol": 1e-14, "snes_atol": 1e-13}
+
+
+# ----------------------------------------------------------------------------- problems
+@functools.lru_cache(maxsize=None)
+def cbox_benchmark() -> meshes.Benchmark:
+    """The C-box of paper §5.2 with a coarse solid (h = 0.1, about 100 polygons)."""
+    return meshes.cbox(0.1)
+
+
+def at_point(point):
+    return lambda x: np.isclose(x[0], point[0]) & np.isclose(x[1], point[1])
+
+
+def cbox_problem(uy: float) -> sf.ContactProblem:
+    """C-box, left side clamped, u_y prescribed at the top-right corner; initial gap 0.3."""
+    bench = cbox_benchmark()
+    problem = sf.ContactProblem(bench.mesh, {SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14),
+                                             MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)},
+                                comm=COMM, verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0), name="fixed")
+    problem.prescribe(at_point(bench.points["load"]), uy=uy, name="load")
+    return problem
+
+
+def block_problem(uy: float) -> sf.ContactProblem:
+    """A 1 x 0.2 solid block of 5 x 2 quads, clamped below, its top face moved by (0, uy)."""
+    mesh = meshes.quad_rectangle(1.0, BLOCK_HEIGHT, 5, 2, tag=SOLID)
+    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, comm=COMM, verbose=False)
+    problem.fix(lambda x: np.isclose(x[1], 0.0), name="bottom")
+    problem.prescribe(lambda x: np.isclose(x[1], BLOCK_HEIGHT), ux=0.0, uy=uy, name="top")
+    return problem
+
+
+def converged(steps: list[dict]) -> list[dict]:
+    return [s for s in steps if s["converged"]]
+
+
+# ----------------------------------------------------------------------------- convergence order
+def order_estimate(norms) -> float:
+    """Order p of the last Newton iteration above round-off, p = log(r_{k+1}/r_k) / log(r_k/r_{k-1}).
+
+    ``norms[0]`` is the jump of the prescribed values (the lifted Dirichlet rows), not a
+    Newton residual of the equilibrium, so k - 1 >= 1. "Above round-off" means r_{k+1} at
+    least 100 times the final residual, which a solve run to ``snes_atol`` just above the
+    round-off level leaves there.
+    """
+    r = np.asarray(norms, dtype=float)
+    usable = [k for k in range(2, r.size - 1) if r[k + 1] >= 100 * r[-1]]
+    assert usable, f"too few Newton iterations above round-off to estimate an order: {r}"
+    k = usable[-1]
+    return float(np.log(r[k + 1] / r[k]) / np.log(r[k] / r[k - 1]))
+
+
+def model_sequence(update, r1: float, floor: float = 1e-15) -> list[float]:
+    """[jump, r1, r2, ...] with r_{k+1} = update(r_k) until round-off, then two round-off values."""
+    r = [1.0, r1]
+    while update(r[-1]) > 1e3 * floor:
+        r.append(update(r[-1]))
+    return r + [floor, floor]
+
+
+@pytest.mark.parametrize("update,order", [(lambda r: 50 * r ** 2, 2.0), (lambda r: 0.2 * r, 1.0),
+                                          (lambda r: 0.01 * r, 1.0)], ids=["quadratic", "linear", "fast-linear"])
+def test_order_estimate_tells_quadratic_from_linear(update, order):
+    """Control for :func:`test_newton_converges_quadratically_in_contact`: the order estimate
+    returns 2 for a quadratically and 1 for a linearly converging sequence (e.g. a Newton
+    iteration with an inconsistent tangent), also when the last residuals sit at round-off."""
+    assert order_estimate(model_sequence(update, r1=1e-3)) == pytest.approx(order, abs=0.05)
+
+
+def test_newton_converges_quadratically_in_contact():
+    """In every load step of the contact phase (medium squeezed below 5 % of its area: the beam
+    tip lies on the lower beam), pure Newton with the tangent of Eq. 56 converges with order
+    ≈ 2 until round-off. The converged steps also reach the full load."""
+    result = cbox_problem(uy=-0.5).solve(8, petsc_options=PURE_NEWTON)
+    assert result.converged, result.message
+    contact = [s for s in converged(result.steps) if s["min_J"] < 0.05]
+    assert len(contact) >= 3, [(s["load"], s["min_J"]) for s in converged(result.steps)]
+    orders = {s["load"]: order_estimate(s["residual_norms"]) for s in contact}
+    assert min(orders.values()) > 1.75, orders
+
+
+# ----------------------------------------------------------------------------- cut-back
+def test_failed_step_is_cut_back():
+    """With at most 4 Newton iterations the single full step fails; the stepper retries from the
+    last converged state with half the increment, grows it again after successes, and reaches
+    the full load. Failed attempts are recorded (converged False) and do not count as steps."""
+    result = cbox_problem(uy=-0.2).solve(1, petsc_options={"snes_max_it": 4})
+    assert result.converged and result.load == 1.0, result.message
+    steps = result.steps
+    assert not steps[0]["converged"] and steps[0]["load"] == 1.0
+    last = 0.0
+    for attempt, following in zip(steps, steps[1:]):
+        if attempt["converged"]:
+            last = attempt["load"]
+        else:
+            assert attempt["newton_iterations"] <= 4
+            assert 0 < following["load"] - last < attempt["load"] - last, (attempt, following)
+    done = converged(steps)
+    assert [s["step"] for s in done] == list(range(1, len(done) + 1))
+    assert np.all(np.diff([s["load"] for s in done]) > 0) and done[-1]["load"] == 1.0
+    assert len(done) < len(steps)
+
+
+def read_outputs(out) -> tuple[dict, list[dict]]:
+    with open(out / "summary.json") as f:
+        summary = json.load(f)
+    with open(out / "load_path.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return summary, rows
+
+
+def exhausted_run(out, raise_on_failure: bool):
+    """Squeeze the block to 3 times its height in 6 steps with one halving allowed: at load
+    factor 1/3 its top face would reach the clamped bottom (J > 0 impossible), so the run
+    must stop there or before. Returns (steps, load reached, message)."""
+    problem = block_problem(uy=-3 * BLOCK_HEIGHT)
+    if not raise_on_failure:
+        result = problem.solve(6, out=out, min_increment=0.5 / 6)
+        assert not result.converged
+        return result.steps, result.load, result.message
+    with pytest.raises(sf.SolveFailed) as failure:
+        problem.solve(6, out=out, min_increment=0.5 / 6, raise_on_failure=True)
+    summary, _ = read_outputs(out)
+    return summary["steps"], max(s["load"] for s in converged(summary["steps"])), str(failure.value)
+
+
+@pytest.mark.parametrize("raise_on_failure", [False, True])
+def test_exhausted_cut_back_keeps_converged_steps(tmp_path, raise_on_failure):
+    """When the smallest increment fails, the message names the load factor of the failed step
+    and the last converged one; every converged step is kept in the result and written to
+    summary.json and load_path.csv; with raise_on_failure=True SolveFailed is raised as well."""
+    out = tmp_path / "run"
+    steps, load, message = exhausted_run(out, raise_on_failure)
+    done = converged(steps)
+    assert done, "the first step (50 % compression) should converge"
+    assert load == done[-1]["load"] < 1 / 3 + 1e-12
+    failed = steps[-1]
+    assert not failed["converged"] and failed["load"] > load
+    assert f"load factor {failed['load']:.6g}" in message
+    assert f"last converged load factor {load:.6g}" in message
+    summary, rows = read_outputs(out)
+    assert summary["converged"] is False and summary["message"] == message
+    assert [s["load"] for s in summary["steps"]] == pytest.approx([s["load"] for s in steps])
+    assert [int(r["step"]) for r in rows] == [s["step"] for s in done]
+    assert [float(r["load"]) for r in rows] == pytest.approx([s["load"] for s in done])
+    assert [float(r["top_Ry"]) for r in rows] == pytest.approx([s["reaction"]["top"][1] for s in done])
+
+
+# ----------------------------------------------------------------------------- options
+@pytest.fixture
+def user_option():
+    """A user's global PETSc option (as from the command line), removed afterwards."""
+    options = PETSc.Options()
+    options["snes_max_it"] = "25"
+    yield options
+    options.delValue("snes_max_it")
+
+
+def test_python_options_do_not_leak(user_option):
+    """snes_max_it = 1 given to one solve makes it fail after one iteration per attempt; the next
+    solve (another problem) again uses the user's global options and converges; the PETSc
+    options database is the same before and after both solves."""
+    before = user_option.getAll()
+    limited = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2, petsc_options={"snes_max_it": 1}, min_increment=0.5)
+    assert not limited.converged
+    assert all(s["newton_iterations"] <= 1 for s in limited.steps)
+    assert user_option.getAll() == before
+    normal = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2)
+    assert normal.converged, normal.message
+    assert max(s["newton_iterations"] for s in normal.steps) > 1
+    assert user_option.getAll() == before
+
+
+# ----------------------------------------------------------------------------- boundary conditions
+def nowhere(x):
+    return x[0] < -1.0
+
+
+@pytest.mark.parametrize("add", [
+    lambda p: p.fix(nowhere, name="outside"),
+    lambda p: p.prescribe(tags=[99], uy=-0.01, name="outside"),
+    lambda p: p.fix(lambda x: x[1] > 2 * BLOCK_HEIGHT, tags=[SOLID], components=(0,), name="outside"),
+], ids=["marker", "missing-tag", "marker-and-tag"])
+def test_empty_boundary_condition_is_named(add):
+    """A boundary condition that selects no degree of freedom is a ValueError naming it."""
+    problem = block_problem(uy=-0.01)
+    add(problem)
+    with pytest.raises(ValueError, match="'outside'"):
+        problem.solve(1)
