@@ -148,7 +148,7 @@ class NewtonSolver:
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
         self.history: list[float] = []
-        self.last_info = None
+        self.worst_info = None      # smallest J met at any trial point of the current solve
 
         self.snes = snes = PETSc.SNES().create(self.comm)
         snes.setFunction(self._residual, self.b)
@@ -160,7 +160,8 @@ class NewtonSolver:
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.disc.residual(x, b)
-        self.last_info = info
+        if self.worst_info is None or not (info.min_J >= self.worst_info.min_J):
+            self.worst_info = info
         if self.f_ext is not None:
             b.axpy(-self.load, self.f_ext)
         with x.localForm() as xl:
@@ -180,11 +181,14 @@ class NewtonSolver:
         self.g[:] = g
         self.load = load
         self.history = []
+        self.worst_info = None
         self.snes.solve(None, x)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         reason = self.snes.getConvergedReason()
         info = self.disc.residual(x, self.b)      # state diagnostics at the final iterate
         ok = reason > 0 and info.min_J > 0.0 and np.isfinite(info.energy)
+        if not ok and self.worst_info is not None:
+            info = self.worst_info                # where it went wrong, not where it started
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag)
 
