@@ -32,7 +32,7 @@ from mpi4py import MPI
 
 from . import _compat
 from .polygon import (FAILED, FAN, RTOL, centroid, diameter, point_location, point_segment_distance,
-                      segment_distance, self_intersection, signed_area, sub_triangulation)
+                      ear_clipping, segment_distance, self_intersection, signed_area, sub_triangulation)
 
 # status codes of _orient_and_check
 _OK, _REPEATED, _ZERO_AREA, _SELF_INTERSECTION = 0, 1, 2, 3
@@ -196,6 +196,30 @@ def _triangulate_all(points, offsets, vertices, tol):
         else:
             interior[p, 0], interior[p, 1] = verts[a], verts[b]
     return -1, extra[:n_extra].copy(), triangles[:tri_offsets[-1]].copy(), tri_offsets, interior
+
+
+@numba.njit(cache=True)
+def _quadrature_triangulate_all(points, offsets, vertices, tol, triangles, tri_offsets):
+    """N − 2 triangles per polygon by ear clipping (into ``points``); where ear clipping
+    fails, the polygon's sub-triangles ``triangles[tri_offsets[p]:tri_offsets[p + 1]]``
+    (indices into ``vstack(points, extra)``) are used. Returns (triangles, offsets)."""
+    n_poly = offsets.size - 1
+    out = np.empty((vertices.size + triangles.shape[0], 3), dtype=np.int64)
+    out_offsets = np.zeros(n_poly + 1, dtype=np.int64)
+    for p in range(n_poly):
+        verts = vertices[offsets[p]:offsets[p + 1]]
+        ok, tri, _ = ear_clipping(points[verts], tol)
+        t0 = out_offsets[p]
+        if ok:
+            for t in range(tri.shape[0]):
+                for k in range(3):
+                    out[t0 + t, k] = verts[tri[t, k]]
+            out_offsets[p + 1] = t0 + tri.shape[0]
+        else:
+            n_t = tri_offsets[p + 1] - tri_offsets[p]
+            out[t0:t0 + n_t] = triangles[tri_offsets[p]:tri_offsets[p + 1]]
+            out_offsets[p + 1] = t0 + n_t
+    return out[:out_offsets[-1]].copy(), out_offsets
 
 
 # --------------------------------------------------------------------------- spatial hash
@@ -406,6 +430,10 @@ class PolygonMesh:
     interior_node : (n_polygons, 2) int64
         Node indices (a, b) whose midpoint hosts the polygon's interior DOF: a == b == the fan
         centre, or the end points of an interior diagonal of an ear-clipped polygon.
+    quadrature_triangles, quadrature_triangle_offsets
+        A second triangulation, into :attr:`nodes`, used only for quadrature: N − 2 ear-clipped
+        triangles per polygon (the fewest; a Gauss rule of degree d on them integrates
+        polynomials of degree d over the polygon exactly, like any triangulation).
 
     Raises
     ------
@@ -439,6 +467,8 @@ class PolygonMesh:
         if failed >= 0:
             raise ValueError(f"polygon {failed}: cannot be sub-triangulated (degenerate shape at "
                              f"tolerance {self.tol:.3g})")
+        self.quadrature_triangles, self.quadrature_triangle_offsets = _quadrature_triangulate_all(
+            self.points, self.offsets, self.vertices, self.tol, self.triangles, self.triangle_offsets)
 
     # ----------------------------------------------------------------------- validation steps
     def _edges(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:

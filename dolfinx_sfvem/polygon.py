@@ -257,7 +257,7 @@ def _ear_quality(xy: npt.NDArray[np.float64], p: int, v: int, q: int, nxt: npt.N
 
 
 @numba.njit(cache=True)
-def _ear_clipping(xy: npt.NDArray[np.float64], tol: float):
+def ear_clipping(xy: npt.NDArray[np.float64], tol: float):
     """Ear clipping, best-shaped ear first. Returns (ok, triangles (N-2, 3), diagonals (N-3, 2))."""
     n = xy.shape[0]
     tri = np.empty((n - 2, 3), dtype=np.int64)
@@ -317,7 +317,7 @@ def sub_triangulation(xy: npt.NDArray[np.float64], tol: float):
         for i in range(n):
             tri[i, 0], tri[i, 1], tri[i, 2] = n, i, (i + 1) % n
         return FAN, c, tri, n, n
-    ok, tri, diag = _ear_clipping(xy, tol)
+    ok, tri, diag = ear_clipping(xy, tol)
     if not ok or diag.shape[0] == 0:
         return FAILED, c, tri, -1, -1
     best, depth = 0, -1.0

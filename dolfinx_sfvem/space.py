@@ -156,7 +156,7 @@ class VEMSpace:
         degrees = (2 * self.projections.l if quadrature_degree is None
                    else np.full(self.polygons.size, quadrature_degree))
         self.q_offsets, self.x_q, self.w_q = polygon_quadrature(
-            mesh.nodes, mesh.triangles, mesh.triangle_offsets, self.polygons, degrees)
+            mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
         self._to_p2 = None
         if verbose:
             text = self.summary()

@@ -501,3 +501,18 @@ def test_to_dolfinx_parallel():
     area, n_cells = _check_dolfinx_mesh(mesh, comm)
     assert n_cells == mesh.triangles.shape[0]
     assert np.isclose(area, 0.25 + 1.0 + 2.0)
+
+
+@pytest.mark.parametrize("listed", [True, False])
+def test_quadrature_triangulation_has_n_minus_2_positive_triangles_tiling_each_polygon(listed):
+    points, polygons, _ = hanging_mesh(3, listed=listed)
+    n = len(points)
+    points = np.vstack([points, COMB * 0.2 + [1.5, 0.0]])
+    mesh = PolygonMesh(points, polygons + [list(range(n, n + 12))])
+    nodes, tri, off = mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets
+    for p in range(mesh.n_polygons):
+        t = tri[off[p]:off[p + 1]]
+        assert t.shape[0] == mesh.polygon(p).size - 2
+        areas = np.array([shoelace(nodes[k]) for k in t])
+        assert np.all(areas > 0)
+        assert np.isclose(areas.sum(), mesh.areas[p])
