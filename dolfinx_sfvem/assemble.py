@@ -201,8 +201,9 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
                                         C[i, mm, 2 + 2 * j + k, 2 + 2 * n + p] = \
                                             out[B_at + 32 * i + 16 * j + 8 * k + 4 * mm + 2 * n + p]
             w = w_q[q]
+            # K is a Hessian: accumulate the upper half only (blocks i <= m, b >= a on the diagonal)
             for i in range(2):
-                for mm in range(2):
+                for mm in range(i, 2):
                     for al in range(nphi):
                         for b in range(nd):
                             s = 0.0
@@ -210,11 +211,17 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
                                 s += C[i, mm, al, be] * Phi[be, b]
                             CPhi[al, b] = w * s
                     for a in range(nd):
-                        for b in range(nd):
+                        for b in range(a if mm == i else 0, nd):
                             s = 0.0
                             for al in range(nphi):
                                 s += Phi[al, a] * CPhi[al, b]
                             Ke[a, i, b, mm] += s
+        for a in range(nd):
+            for b in range(nd):
+                Ke[b, 1, a, 0] = Ke[a, 0, b, 1]
+                if b > a:
+                    Ke[b, 0, a, 0] = Ke[a, 0, b, 0]
+                    Ke[b, 1, a, 1] = Ke[a, 1, b, 1]
         values[coo_off[e]:coo_off[e] + 4 * nd * nd] = Ke.ravel()
 
 
