@@ -262,7 +262,9 @@ class ContactProblem:
         message, load = "", stepper.load
         with stop:
             try:
-                load = stepper.run(solve_to, save, restore, on_step, on_failure, should_stop=stop)
+                # collective: ranks may receive a signal at slightly different times
+                load = stepper.run(solve_to, save, restore, on_step, on_failure,
+                                   should_stop=lambda: self.comm.allreduce(stop.signalled, op=MPI.MAX) > 0)
             except SolveFailed as err:
                 n_done = sum(r["converged"] for r in records)
                 message = f"step {n_done + 1}: {err}"
@@ -271,8 +273,9 @@ class ContactProblem:
                 if raise_on_failure:
                     self._finish(writer, records, t_start, load, message)
                     raise
-        if stop.signalled:
-            message = f"stopped by signal {stop.signalled} at load factor {load:.6g}"
+        signalled = self.comm.allreduce(stop.signalled, op=MPI.MAX)
+        if signalled:
+            message = f"stopped by signal {signalled} at load factor {load:.6g}"
         return self._finish(writer, records, t_start, load, message)
 
     def _check_initial_state(self) -> None:

@@ -93,3 +93,21 @@ def test_linear_solution_reproduced_exactly():
     assert problem.solve(steps=1).converged
     e0, e1 = problem.disc.error_norms(problem.x, lambda x: A @ x, lambda x: np.repeat(A[:, :, None], x.shape[1], 2))
     assert e0 < 1e-12 and e1 < 1e-12
+
+
+@pytest.mark.mpi
+def test_same_solution_on_one_and_all_ranks():
+    """The small-strain solve on all ranks equals the one on a single rank (relative 1e-10)."""
+    mesh = sf.meshes.polygon_rectangle(1.0, 1.0, 0.1) if MPI.COMM_WORLD.rank == 0 else None
+    mesh = MPI.COMM_WORLD.bcast(mesh, root=0)
+    displacements = []
+    for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
+        energy = sf.UserEnergy(small_strain, uses_gradient=False, lam=LAM, mu=MU)
+        problem = sf.ContactProblem(mesh, {int(mesh.tags[0]): energy}, comm=comm, verbose=False)
+        problem.fix(on_boundary)
+        problem.body_force(body_force)
+        assert problem.solve(steps=1).converged
+        displacements.append(problem.point_displacements())
+    if MPI.COMM_WORLD.rank == 0:
+        u_all, u_one = displacements
+        assert np.max(np.abs(u_all - u_one)) <= 1e-10 * np.max(np.abs(u_one))
