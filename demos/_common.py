@@ -67,7 +67,8 @@ class _Parser(argparse.ArgumentParser):
 # --------------------------------------------------------------------------- command line
 def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Sequence[int] = (1,),
            mesh_help: str = "mesh variant", h: float = 0.05, h_max: float = math.inf, gamma: float = 1e-5,
-           alpha_r: float = 1.0, regularization: str = "rotation") -> argparse.ArgumentParser:
+           alpha_r: float = 1.0, regularization: str = "rotation",
+           beta: float | None = None) -> argparse.ArgumentParser:
     """The parser with the options every demo shares; a demo adds its own to it.
 
     Parameters
@@ -76,8 +77,9 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
         Demo name; the default output directory is ``out/<name>``.
     description
         Shown by ``--help`` (the demo's docstring).
-    steps, meshes, h, gamma, alpha_r, regularization
-        The demo's defaults; ``meshes`` lists the valid ``--mesh`` variants, the first is the default.
+    steps, meshes, h, gamma, alpha_r, regularization, beta
+        The demo's defaults; ``meshes`` lists the valid ``--mesh`` variants, the first is the
+        default; ``beta`` None means the exp(-beta J) scaling is off unless ``--beta`` is given.
     h_max
         Largest accepted ``--h`` (a mesh must resolve the thinnest part of the geometry).
     mesh_help
@@ -101,8 +103,9 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                    help="regularization weight alpha_r >= 0 (default %(default)s)")
     p.add_argument("--regularization", choices=REGULARIZATIONS, default=regularization,
                    help="regularization of the medium, paper Table 1 (default %(default)s)")
-    p.add_argument("--beta", type=non_negative_float, default=None,
-                   help="switch on the exp(-beta J) scaling of the regularization (default off)")
+    p.add_argument("--beta", type=non_negative_float, default=beta,
+                   help="exponent of the exp(-beta J) scaling of the regularization "
+                        f"(default {'off' if beta is None else '%(default)s'})")
     p.add_argument("--quiet", action="store_true", help="no progress output, only the final lines")
     p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
                    help="continue the stopped run in DIR from its last converged step (same options as that run)")

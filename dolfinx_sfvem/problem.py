@@ -98,6 +98,7 @@ class ContactProblem:
             self.disc = P2Discretization.from_polygon_mesh(mesh, self.materials, comm, **options)
         self.bcs: list[BoundaryCondition] = []
         self.f_ext = None
+        self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
         self.x = self.disc.create_vector()
         self.x.set(0.0)
         self.parameters: dict[str, typing.Any] = {}
@@ -300,14 +301,17 @@ class ContactProblem:
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         stepper.restore({k: float(data[k]) for k in ("load", "increment", "streak")})
         with open(out / "summary.json") as f:
-            records = [r for r in json.load(f)["steps"] if r["converged"]]
+            previous = json.load(f)
+        records = [r for r in previous["steps"] if r["converged"]]
+        earlier = previous.get("wall_time_s")
+        self._earlier_wall_time = float(earlier) if isinstance(earlier, (int, float)) and np.isfinite(earlier) else 0.0
         records = [r for r in records if r["load"] <= stepper.load + 1e-14]
         if self.comm.rank == 0 and self.verbose:
             print(f"resuming from load factor {stepper.load:.6g} after {len(records)} converged steps", flush=True)
         return records
 
     def _finish(self, writer, records, t_start, load, message) -> Result:
-        wall = time.perf_counter() - t_start
+        wall = time.perf_counter() - t_start + self._earlier_wall_time
         converged = load >= 1.0 - 1e-12 and not message
         summary = self.summary(records, wall, converged, message)
         if writer is not None:

@@ -1,0 +1,476 @@
+"""Box self-contact (paper §5.1).
+
+Problem
+-------
+A closed plane-strain box whose cavity is filled with the third medium is pressed down at the
+middle of its top. The upper flange bends into the cavity until it touches the lower flange at
+mid-span; contact is transmitted through the medium alone, no contact algorithm is involved.
+Recorded per step: the gap g between the inner surfaces of the upper and lower flange at
+mid-span and the reaction force at the load point.
+
+Geometry and mesh (``dolfinx_sfvem.meshes.box``, see meshes/README.md)
+----------------------------------------------------------------------
+L = 2, H = 0.5, wall thickness T = 0.1: the solid is [0, 2] x [0, 0.5] minus the cavity
+[0.1, 1.9] x [0.1, 0.4]; the cavity is the medium, the initial gap is g0 = 0.3. Solid: polygons,
+the dual of a gmsh triangle mesh of size ``--h`` (sides split at x = 1, so the mid-span points are
+vertices); medium: quads of size h, h/2, h/3 for ``--mesh 1 | 2 | 3`` (paper Fig. 3 b-d), joined to
+the unchanged solid mesh through hanging nodes.
+
+What the paper leaves open (its figures are missing), our choices:
+
+- mesh sizes: solid polygons about h = 0.05 across (two across the wall), medium quads of h/mesh;
+- the load is a point load: u_y prescribed at the one node (1, 0.5), u_x free there;
+- "fixed at the lower left corner": u_x = u_y = 0 at the node (0, 0); "simply supported at the
+  lower right corner": u_y = 0 at the node (2, 0), u_x free;
+- the gap is the vertical distance of the two material points (1, 0.4) and (1, 0.1) in the
+  deformed configuration, g = (0.4 + u_y(1, 0.4)) - (0.1 + u_y(1, 0.1)) (their horizontal motion
+  is ignored; it is the same for both to within the flange rotation);
+- |F| in the scaling exp(-beta |F|) of Eq. 8 is J = det F (as in the library, Appendix B);
+- medium: Eq. 58, i.e. K = 0 (Eq. 5) and the solid's mu = 10;
+- the projection order l is chosen per polygon by the rank check (l = 3 on most polygons, higher
+  on solid polygons with several hanging nodes on one side), where the paper states l = 3;
+- Table 3: the paper's regularizations there are written without exp(-beta J) (its text says
+  "similar results can also be obtained if the item e^(-beta|F|) is considered"), so the
+  ``--table3`` sweep runs them unscaled.
+
+Parameters
+----------
+Solid (Eq. 2): K = 20, mu = 10. Medium (Eq. 58): mu = 10, gamma = ``--gamma`` (default 1e-6),
+alpha_r = ``--alpha-r`` (default 0.1), regularization ``--regularization`` (default huhu_lulu:
+1/2 (grad F : grad F - 1/2 Div(grad u) . Div(grad u)), Eq. 9) scaled by exp(-beta J) with
+``--beta`` (default 5; ``--no-beta`` switches the scaling off). u_y = ``--uy`` (default -1) at
+(1, 0.5) in ``--steps`` (default 100) equal load steps.
+
+Outputs (in ``--out``)
+----------------------
+summary.json (parameters, DOFs, per step: load factor, Newton residuals, reactions ``load``,
+``fixed``, ``roller``, and in ``extra`` the observers ``gap``, ``top_uy`` = u_y(1, 0.4),
+``bottom_uy`` = u_y(1, 0.1)), load_path.csv (one row per converged step), displacement.xdmf,
+deformed.png, uy.png, gap.png (g over the prescribed displacement, linear and logarithmic) and
+reaction.png (the force -R_y needed at the load point).
+
+Paper studies (each run in its own sub-directory of ``--out``)
+--------------------------------------------------------------
+``--table2``: alpha_r in {10, 1, 0.1} x gamma in {1e-4, 1e-5, 1e-6} x mesh {1, 2, 3}, huhu_lulu
+with beta = 5 (paper Table 2); writes table2.md and table2.json (our final gap, the paper's,
+their ratio, Newton iterations, wall time). ``--table3``: gamma = 1e-6, alpha_r = 10,
+regularizations huhu_lulu, rotation, tan_rotation (unscaled) on meshes 1-3 (paper Table 3);
+table3.md / table3.json. ``--fig4``: gamma in {1e-4, 1e-5, 1e-6}, mesh 3, alpha_r = 0.1 (the same
+runs as Table 2, shared when ``--out`` is the same); fig4.png with gap (linear and logarithmic) and reaction over the load.
+The sweeps set gamma, alpha_r, the regularization and beta themselves (``--gamma``,
+``--alpha-r``, ``--regularization``, ``--beta``, ``--mesh`` are ignored there); ``--meshes``,
+``--alpha-rs``, ``--gammas``, ``--regularizations`` and ``--steps`` restrict a sweep, ``--h``,
+``--uy`` and PETSc options apply to every run. A sweep is restartable: a run whose summary.json says converged (with the same
+parameters) is skipped, a run stopped by a signal is resumed from its checkpoint, a run that
+failed is not repeated unless ``--retry-failed`` is given. Ctrl-C stops the sweep after the
+current load step.
+
+Run time (measured on 2 ranks of a shared 2-core machine, h = 0.05): mesh 1 (5,658 DOFs), gamma = 1e-5,
+alpha_r = 1, 100 steps: 3.7 min (326 Newton iterations, no cut-back; final gap 1.953e-3, paper
+2.182e-3). The same first steps take 1.45x as long on mesh 2 (10,674 DOFs) and 2.5x on mesh 3
+(19,818 DOFs), so one 100-step run is about 4 / 6 / 10 min on meshes 1 / 2 / 3 and the full
+``--table2`` (27 runs) about 3 h, ``--table3`` (9 runs) about 1 h, ``--fig4`` (3 runs on mesh 3)
+about 30 min, more where small gamma needs extra Newton iterations or cut-backs. ``--steps``
+scales this about linearly, ``--meshes 1`` takes a fifth of it.
+
+Examples::
+
+    mpirun -n 2 python3 demos/box_self_contact.py --mesh 1 --gamma 1e-5 --alpha-r 1 --out out/box
+    mpirun -n 2 python3 demos/box_self_contact.py --table2 --meshes 1 --out out/box-study
+    mpirun -n 2 python3 demos/box_self_contact.py --fig4 --out out/box-study
+
+Further options: ``python3 demos/box_self_contact.py --help``; PETSc options are passed through,
+e.g. ``-snes_monitor -snes_linesearch_type bt``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+import sys
+import typing
+
+from mpi4py import MPI
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem import post
+
+import _common as common
+
+#: solid bulk and shear modulus (the medium has the same mu)
+K, MU = 20.0, 10.0
+#: wall thickness: the largest mesh size that still resolves the walls
+T = 0.1
+#: initial gap between the inner surfaces of the flanges (H - 2 T)
+G0 = 0.5 - 2 * T
+#: default exponent of the exp(-beta J) scaling of the regularization (paper §5.1, Eq. 58)
+BETA = 5.0
+
+#: Paper Table 2 (Xu & Wriggers, §5.1; DESIGN.md §7): final gap g at u_y = -1 for huhu_lulu with
+#: exp(-5 J) scaling; (alpha_r, gamma) -> (mesh 1, mesh 2, mesh 3).
+PAPER_TABLE2: dict[tuple[float, float], tuple[float, float, float]] = {
+    (10.0, 1e-4): (8.6882e-3, 8.7000e-3, 7.5000e-3),
+    (10.0, 1e-5): (2.8000e-3, 1.9476e-3, 1.7330e-3),
+    (10.0, 1e-6): (7.3795e-4, 8.2579e-4, 4.1061e-4),
+    (1.0, 1e-4): (7.9000e-3, 7.2327e-3, 7.0869e-3),
+    (1.0, 1e-5): (2.1822e-3, 2.1104e-3, 1.7138e-3),
+    (1.0, 1e-6): (5.1084e-4, 5.3938e-4, 4.9040e-4),
+    (0.1, 1e-4): (7.6000e-3, 7.3281e-3, 7.0544e-3),
+    (0.1, 1e-5): (1.8730e-3, 1.8934e-3, 1.7435e-3),
+    (0.1, 1e-6): (4.8469e-4, 4.8581e-4, 4.6363e-4),
+}
+#: Paper Table 3 (§5.1; DESIGN.md §7): final gap for gamma = 1e-6, alpha_r = 10 and the
+#: regularizations of Eqs. 9, 15, 16 (unscaled); regularization -> (mesh 1, mesh 2, mesh 3).
+#: (The rotation row repeats Table 2's alpha_r = 1 values on meshes 1, 2 and its alpha_r = 10 value
+#: on mesh 3, as printed in the paper.)
+PAPER_TABLE3: dict[str, tuple[float, float, float]] = {
+    "huhu_lulu": (5.0282e-4, 5.0988e-4, 4.9311e-4),
+    "rotation": (5.1084e-4, 5.3938e-4, 4.1061e-4),
+    "tan_rotation": (5.1127e-4, 5.4095e-4, 4.0902e-4),
+}
+TABLE3_GAMMA, TABLE3_ALPHA_R = 1e-6, 10.0
+FIG4_ALPHA_R, FIG4_MESH = 0.1, 3
+
+#: options that only steer a sweep (not stored in the parameters of the single runs)
+SWEEP_OPTIONS = ("table2", "table3", "fig4", "meshes", "alpha_rs", "gammas", "regularizations", "retry_failed")
+#: parameters that must agree for a finished run to be reused by a sweep
+RUN_KEYS = ("method", "steps", "h", "uy", "mesh", "gamma", "alpha_r", "regularization", "beta")
+
+
+# --------------------------------------------------------------------------- command line
+def make_parser() -> argparse.ArgumentParser:
+    """The shared demo options with the box defaults, plus ``--uy``, ``--no-beta`` and the sweeps."""
+    p = common.parser("box_self_contact", __doc__, steps=100, meshes=(1, 2, 3), h=0.05, h_max=T, gamma=1e-6,
+                      alpha_r=0.1, regularization="huhu_lulu", beta=BETA,
+                      mesh_help="medium density: quads of size h/1, h/2, h/3 (solid unchanged)")
+    p.add_argument("--no-beta", dest="beta", action="store_const", const=None,
+                   help="switch the exp(-beta J) scaling off")
+    p.add_argument("--uy", type=common.finite_float, default=-1.0,
+                   help="vertical displacement of the middle of the top (default %(default)s)")
+    study = p.add_argument_group("paper studies (one run per sub-directory of --out)")
+    which = study.add_mutually_exclusive_group()
+    which.add_argument("--table2", action="store_true", help="alpha_r x gamma x mesh sweep of Table 2")
+    which.add_argument("--table3", action="store_true", help="regularization x mesh sweep of Table 3")
+    which.add_argument("--fig4", action="store_true", help="gap and reaction for several gamma (Fig. 4)")
+    study.add_argument("--meshes", type=int, nargs="+", choices=(1, 2, 3), default=None,
+                       help="meshes of the sweep (default: 1 2 3; --fig4: 3)")
+    study.add_argument("--alpha-rs", type=common.non_negative_float, nargs="+", default=None,
+                       help="alpha_r values of --table2 (default 10 1 0.1)")
+    study.add_argument("--gammas", type=common.positive_float, nargs="+", default=None,
+                       help="gamma values of --table2 / --fig4 (default 1e-4 1e-5 1e-6)")
+    study.add_argument("--regularizations", choices=("huhu_lulu", "rotation", "tan_rotation"), nargs="+",
+                       default=None, help="regularizations of --table3 (default: all three)")
+    study.add_argument("--retry-failed", action="store_true",
+                       help="repeat sweep runs that stopped without reaching the full load")
+    return p
+
+
+# --------------------------------------------------------------------------- one run
+def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
+    """The box contact problem of the command line.
+
+    Returns
+    -------
+    problem
+        Lower-left corner fixed, lower-right corner u_y = 0 (``roller``), u_y prescribed at the
+        middle of the top (boundary condition ``load``).
+    observers
+        ``gap`` (gap between the flanges at mid-span), ``top_uy`` and ``bottom_uy`` (u_y of the
+        inner surface points (1, 0.4) and (1, 0.1)), recorded per step.
+    """
+    bench = sf.meshes.box(mesh=args.mesh, h_solid=args.h)
+    problem = sf.ContactProblem(bench.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
+                                             sf.meshes.MEDIUM: common.third_medium(args, mu=MU)},
+                                method=args.method, verbose=not args.quiet)
+    problem.fix(common.at_point(bench.points["fixed"]))
+    problem.fix(common.at_point(bench.points["roller"]), components=(1,), name="roller")
+    problem.prescribe(common.at_point(bench.points["load"]), uy=args.uy, name="load")
+    top = common.displacement_observer(problem, common.at_point(bench.points["gap_top"]), 1)
+    bottom = common.displacement_observer(problem, common.at_point(bench.points["gap_bottom"]), 1)
+    g0 = bench.points["gap_top"][1] - bench.points["gap_bottom"][1]
+
+    def gap(p: sf.ContactProblem) -> float:
+        return g0 + top(p) - bottom(p)
+    return problem, {"gap": gap, "top_uy": top, "bottom_uy": bottom}
+
+
+def load_path(summary: dict, uy: float) -> dict[str, list[float]]:
+    """Prescribed displacement -u_y, gap and force -R_y at the load point of the converged steps."""
+    steps = [s for s in summary["steps"] if s["converged"]]
+    return {"displacement": [0.0] + [-uy * s["load"] for s in steps],
+            "gap": [G0] + [s["extra"]["gap"] for s in steps],
+            "force": [0.0] + [-s["reaction"]["load"][1] for s in steps]}
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _save(fig, path: pathlib.Path) -> None:
+    """Save a figure atomically (as post does)."""
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, bbox_inches="tight")
+    _pyplot().close(fig)
+    tmp.replace(path)
+
+
+def plot_run(out: pathlib.Path, summary: dict, uy: float) -> None:
+    """gap.png and reaction.png of one run (rank 0)."""
+    plt = _pyplot()
+    data = load_path(summary, uy)
+    title = _label(summary["parameters"])
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=110, layout="constrained")
+    for ax, scale in zip(axes, ("linear", "log")):
+        ax.plot(data["displacement"], data["gap"], ".-", ms=3)
+        ax.set_yscale(scale)
+        ax.set_xlabel("prescribed displacement $-u_y$")
+        ax.set_ylabel("gap $g$")
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle(f"gap between the flanges at mid-span: {title}")
+    _save(fig, out / "gap.png")
+    fig, ax = plt.subplots(figsize=(5.5, 4), dpi=110)
+    ax.plot(data["displacement"], data["force"], ".-", ms=3)
+    ax.set_xlabel("prescribed displacement $-u_y$")
+    ax.set_ylabel("force $-R_y$ at the load point")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(title, fontsize=9)
+    _save(fig, out / "reaction.png")
+
+
+def _label(params: dict) -> str:
+    scaling = f", beta {params['beta']:g}" if params.get("beta") is not None else ""
+    return (f"mesh {params['mesh']}, gamma {params['gamma']:g}, alpha_r {params['alpha_r']:g}, "
+            f"{params['regularization']}{scaling}")
+
+
+def _read_summary(out: pathlib.Path) -> dict | None:
+    """summary.json of ``out`` read on rank 0 and broadcast (None if absent or unreadable)."""
+    data = None
+    if MPI.COMM_WORLD.rank == 0:
+        try:
+            data = json.loads((out / "summary.json").read_text())
+        except (OSError, ValueError):
+            data = None
+    return MPI.COMM_WORLD.bcast(data, root=0)
+
+
+def single(args: argparse.Namespace) -> int:
+    """One run: solve, write the outputs and the two load-path plots; returns the exit code."""
+    problem, observers = build(args)
+    code = common.run(problem, args, observers)
+    summary = _read_summary(args.out)
+    if MPI.COMM_WORLD.rank == 0 and summary is not None:
+        plot_run(args.out, summary, args.uy)
+    return code
+
+
+# --------------------------------------------------------------------------- sweeps
+def run_dir(out: pathlib.Path, regularization: str, beta: float | None, alpha_r: float, gamma: float,
+            mesh: int) -> pathlib.Path:
+    """Sub-directory of one sweep run, e.g. ``huhu_lulu-beta5/alpha_r0.1-gamma1e-06-mesh3``."""
+    scaling = f"-beta{beta:g}" if beta is not None else ""
+    return out / f"{regularization}{scaling}" / f"alpha_r{_fmt(alpha_r)}-gamma{_fmt(gamma)}-mesh{mesh}"
+
+
+def _fmt(value: float) -> str:
+    """A parameter value as in the paper's tables: 10, 0.1, 1e-05."""
+    return f"{value:.0e}" if 0 < abs(value) < 1e-2 else f"{value:g}"
+
+
+def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | None, alpha_r: float,
+              gamma: float, mesh: int) -> tuple[dict | None, str]:
+    """Run (or reuse) one run of a sweep; returns its summary and how it was obtained.
+
+    The status is ``done`` (converged before, skipped), ``failed-before`` (skipped, see
+    ``--retry-failed``), ``ran``, ``resumed`` or ``stopped`` (by a signal).
+    """
+    run_args = argparse.Namespace(**{k: v for k, v in vars(args).items() if k not in SWEEP_OPTIONS})
+    run_args.regularization, run_args.beta, run_args.alpha_r, run_args.gamma, run_args.mesh = (
+        regularization, beta, alpha_r, gamma, mesh)
+    run_args.out = run_dir(args.out, regularization, beta, alpha_r, gamma, mesh)
+    run_args.resume = None
+    previous = _read_summary(run_args.out)
+    same = previous is not None and all(previous["parameters"].get(k) == getattr(run_args, k) for k in RUN_KEYS)
+    rank0 = MPI.COMM_WORLD.rank == 0
+    if same and previous["converged"]:
+        if rank0:
+            print(f"[sweep] {run_args.out}: converged before, skipped", flush=True)
+        return previous, "done"
+    status = "ran"
+    if same and not args.retry_failed and previous["message"] and not _interrupted(previous):
+        if rank0:
+            print(f"[sweep] {run_args.out}: failed before ({previous['message']}), skipped "
+                  f"(--retry-failed repeats it)", flush=True)
+        return previous, "failed-before"
+    if same and _interrupted(previous) and (run_args.out / sf.problem.CHECKPOINT).exists():
+        run_args.resume, status = run_args.out, "resumed"
+    if rank0:
+        print(f"[sweep] {run_args.out}: {'resuming' if status == 'resumed' else 'running'}", flush=True)
+    single(run_args)
+    summary = _read_summary(run_args.out)
+    if summary is not None and _interrupted(summary):
+        status = "stopped"
+    return summary, status
+
+
+def _interrupted(summary: dict) -> bool:
+    """A run stopped by a signal, or killed while running (its summary says "running")."""
+    return summary["message"] == "running" or summary["message"].startswith("stopped by signal")
+
+
+def _final(summary: dict | None) -> dict:
+    """Final gap, load reached, Newton iterations and wall time of a run's summary."""
+    steps = [s for s in summary["steps"] if s["converged"]] if summary else []
+    if not steps:
+        return {"gap": None, "load": 0.0, "converged": False, "newton_iterations": 0, "wall_time_s": None,
+                "dofs": summary["dofs"] if summary else None}
+    return {"gap": steps[-1]["extra"]["gap"], "load": steps[-1]["load"], "converged": bool(summary["converged"]),
+            "newton_iterations": sum(s["newton_iterations"] for s in summary["steps"]),
+            "wall_time_s": summary["wall_time_s"], "dofs": summary["dofs"]}
+
+
+def _cell(entry: dict) -> str:
+    """Our gap in a table cell; a run short of the full load is marked with the load it reached."""
+    if entry["gap"] is None:
+        return "—"
+    return f"{entry['gap']:.4e}" + ("" if entry["converged"] else f" (load {entry['load']:.3g})")
+
+
+def _ratio(entry: dict) -> float | None:
+    return entry["gap"] / entry["paper"] if entry["gap"] is not None and entry["converged"] else None
+
+
+def write_table(out: pathlib.Path, name: str, title: str, row_names: typing.Sequence[str],
+                rows: typing.Sequence[tuple], meshes: typing.Sequence[int], entries: dict) -> None:
+    """``<name>.md`` and ``<name>.json``: ours, the paper's and the ratio per row and mesh (rank 0)."""
+    header = list(row_names) + [f"{label} mesh {m}" for m in meshes for label in ("g", "paper", "g/paper")]
+    lines = [f"# {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        cells = [_fmt(v) if isinstance(v, float) else str(v) for v in row]
+        for m in meshes:
+            e = entries[(*row, m)]
+            ratio = _ratio(e)
+            cells += [_cell(e), f"{e['paper']:.4e}", "—" if ratio is None else f"{ratio:.3f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "g: our gap at the end of the run (marked with the load factor reached when short of the "
+                  "full load); paper: the paper's value; g/paper: ratio (full load only)."]
+    post.atomic_write_text(out / f"{name}.md", "\n".join(lines) + "\n")
+    records = [{**dict(zip(row_names, row)), "mesh": m, **entries[(*row, m)], "ratio": _ratio(entries[(*row, m)])}
+               for row in rows for m in meshes]
+    post.write_json(out / f"{name}.json", {"title": title, "runs": records})
+
+
+def table2(args: argparse.Namespace) -> int:
+    """The alpha_r x gamma x mesh sweep of paper Table 2."""
+    alpha_rs = args.alpha_rs or [10.0, 1.0, 0.1]
+    gammas = args.gammas or [1e-4, 1e-5, 1e-6]
+    meshes = args.meshes or [1, 2, 3]
+    _check_known(alpha_rs, gammas)
+    rows = [(a, g) for a in alpha_rs for g in gammas]
+    entries = {}
+    for a, g in rows:
+        for m in meshes:
+            summary, status = sweep_run(args, regularization="huhu_lulu", beta=BETA, alpha_r=a, gamma=g, mesh=m)
+            if status == "stopped":
+                return 1
+            entries[(a, g, m)] = {**_final(summary), "paper": _paper2(a, g, m), "dir": str(
+                run_dir(args.out, "huhu_lulu", BETA, a, g, m).relative_to(args.out)), "status": status}
+    if MPI.COMM_WORLD.rank == 0:
+        write_table(args.out, "table2", f"Paper Table 2: gap g at u_y = {args.uy:g} ({args.steps} steps), "
+                    f"huhu_lulu with exp(-{BETA:g} J), h = {args.h:g}", ("alpha_r", "gamma"), rows, meshes, entries)
+        print(f"wrote {args.out / 'table2.md'} and table2.json", flush=True)
+    return 0 if all(e["converged"] for e in entries.values()) else 1
+
+
+def table3(args: argparse.Namespace) -> int:
+    """The regularization x mesh sweep of paper Table 3 (gamma = 1e-6, alpha_r = 10, unscaled)."""
+    regularizations = args.regularizations or list(PAPER_TABLE3)
+    meshes = args.meshes or [1, 2, 3]
+    rows = [(r,) for r in regularizations]
+    entries = {}
+    for (r,) in rows:
+        for m in meshes:
+            summary, status = sweep_run(args, regularization=r, beta=None, alpha_r=TABLE3_ALPHA_R,
+                                        gamma=TABLE3_GAMMA, mesh=m)
+            if status == "stopped":
+                return 1
+            entries[(r, m)] = {**_final(summary), "paper": PAPER_TABLE3[r][m - 1], "dir": str(
+                run_dir(args.out, r, None, TABLE3_ALPHA_R, TABLE3_GAMMA, m).relative_to(args.out)), "status": status}
+    if MPI.COMM_WORLD.rank == 0:
+        write_table(args.out, "table3", f"Paper Table 3: gap g at u_y = {args.uy:g} ({args.steps} steps), "
+                    f"gamma = {TABLE3_GAMMA:g}, alpha_r = {TABLE3_ALPHA_R:g}, no scaling, h = {args.h:g}",
+                    ("regularization",), rows, meshes, entries)
+        print(f"wrote {args.out / 'table3.md'} and table3.json", flush=True)
+    return 0 if all(e["converged"] for e in entries.values()) else 1
+
+
+def fig4(args: argparse.Namespace) -> int:
+    """Gap and reaction over the load for several gamma, alpha_r = 0.1, mesh 3 (paper Fig. 4)."""
+    gammas = args.gammas or [1e-4, 1e-5, 1e-6]
+    meshes = args.meshes or [FIG4_MESH]
+    curves, all_converged = [], True
+    for m in meshes:
+        for g in gammas:
+            summary, status = sweep_run(args, regularization="huhu_lulu", beta=BETA, alpha_r=FIG4_ALPHA_R,
+                                        gamma=g, mesh=m)
+            if status == "stopped":
+                return 1
+            all_converged &= bool(summary and summary["converged"])
+            if summary is not None:
+                curves.append((f"gamma = {_fmt(g)}" + (f", mesh {m}" if len(meshes) > 1 else ""), summary))
+    if MPI.COMM_WORLD.rank == 0:
+        plt = _pyplot()
+        fig, (ax_g, ax_log, ax_f) = plt.subplots(1, 3, figsize=(15, 4.4), dpi=110, layout="constrained")
+        for label, summary in curves:
+            data = load_path(summary, args.uy)
+            for ax in (ax_g, ax_log):
+                ax.plot(data["displacement"], data["gap"], ".-", ms=2, label=label)
+            ax_f.plot(data["displacement"], data["force"], ".-", ms=2, label=label)
+        ax_log.set_yscale("log")
+        for ax, name, ylabel in ((ax_g, "(a)", "gap $g$"), (ax_log, "(a) logarithmic", "gap $g$"),
+                                 (ax_f, "(b)", "force $-R_y$ at the load point")):
+            ax.set_xlabel("prescribed displacement $-u_y$")
+            ax.set_ylabel(ylabel)
+            ax.set_title(name)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend()
+        fig.suptitle(f"Paper Fig. 4: alpha_r = {FIG4_ALPHA_R:g}, huhu_lulu with exp(-{BETA:g} J), "
+                     f"mesh {', '.join(map(str, meshes))}")
+        _save(fig, args.out / "fig4.png")
+        print(f"wrote {args.out / 'fig4.png'}", flush=True)
+    return 0 if all_converged else 1
+
+
+def _paper2(alpha_r: float, gamma: float, mesh: int) -> float:
+    return PAPER_TABLE2[(alpha_r, gamma)][mesh - 1]
+
+
+def _check_known(alpha_rs: typing.Sequence[float], gammas: typing.Sequence[float]) -> None:
+    """The Table 2 sweep only runs parameters that the paper reports."""
+    for a in alpha_rs:
+        for g in gammas:
+            if not any(math.isclose(a, pa) and math.isclose(g, pg) for pa, pg in PAPER_TABLE2):
+                raise ValueError(f"Table 2 has no entry for alpha_r = {a:g}, gamma = {g:g}; "
+                                 f"alpha_r in {{10, 1, 0.1}}, gamma in {{1e-4, 1e-5, 1e-6}}")
+
+
+def main(argv: typing.Sequence[str] | None = None) -> int:
+    """Parse ``argv`` (default ``sys.argv[1:]``); one run or a sweep; returns the exit code."""
+    args = common.parse_args(make_parser(), argv)
+    if args.table2 or args.table3 or args.fig4:
+        if args.resume is not None:
+            raise ValueError("--resume is for a single run; a sweep resumes its stopped runs by itself")
+        if args.alpha_rs is not None:
+            args.alpha_rs = [next((pa for pa, _ in PAPER_TABLE2 if math.isclose(a, pa)), a) for a in args.alpha_rs]
+        if args.gammas is not None:
+            args.gammas = [next((pg for _, pg in PAPER_TABLE2 if math.isclose(g, pg)), g) for g in args.gammas]
+        return table2(args) if args.table2 else table3(args) if args.table3 else fig4(args)
+    return single(args)
+
+
+if __name__ == "__main__":
+    sys.exit(common.exit_code(main))
