@@ -6,7 +6,7 @@ Every demo builds its parser with :func:`parser` (the options below), parses it 
 
 Shared options
 --------------
-``--method`` (vem), ``--steps``, ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
+``--method`` (vem or fem: the P2 FEM reference on a triangle mesh of the same geometry with about as many unknowns), ``--steps``, ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
 regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run). Every other argument starting with a
@@ -32,7 +32,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 
-METHODS = ("vem",)
+METHODS = ("vem", "fem")
 REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
 
 

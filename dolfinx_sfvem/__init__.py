@@ -13,6 +13,8 @@ ContactProblem
     Mesh + energies + boundary conditions + load path, solved with PETSc SNES.
 VEMSpace, SFVEMDiscretization
     The discrete space and the residual/tangent assembly, for use in own scripts.
+P2Discretization
+    The P2 Lagrange FEM reference on the same energies (``ContactProblem(..., method="fem")``).
 linear_elastic_stiffness
     The plane-strain linear-elastic SFVEM stiffness of one polygon.
 meshes
@@ -21,6 +23,7 @@ meshes
 from . import meshes
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
+from .fem import P2Discretization
 from .mesh import PolygonMesh
 from .problem import ContactProblem
 from .solver import SolveFailed, set_petsc_options
@@ -30,5 +33,5 @@ from .vem import SFVEMDiscretization
 __version__ = "0.1.0"
 
 __all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
-           "VEMSpace", "SFVEMDiscretization", "linear_elastic_stiffness", "meshes", "SolveFailed",
+           "VEMSpace", "SFVEMDiscretization", "P2Discretization", "linear_elastic_stiffness", "meshes", "SolveFailed",
            "set_petsc_options"]

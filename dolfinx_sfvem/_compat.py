@@ -6,7 +6,9 @@ A port to a newer DOLFINx (0.9/0.10) should only need to touch this module:
 - the mapping of local cells / geometry nodes back to their input indices,
 - JIT compilation of a UFL expression into a C function pointer (FFCx),
 - PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES
-  domain errors), called through ctypes on the object handles.
+  domain errors), called through ctypes on the object handles,
+- for the P2 FEM reference: mesh creation with DOLFINx's own partitioner, cell
+  tags, vector spaces, basix quadrature rules and compiled expressions.
 """
 from __future__ import annotations
 
@@ -20,8 +22,10 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import basix
 import dolfinx
 import dolfinx.cpp
+import dolfinx.fem
 import dolfinx.jit
 import dolfinx.mesh
 
@@ -190,3 +194,53 @@ def mat_set_values_coo(A: PETSc.Mat, values: npt.NDArray[np.float64], mode: int 
 def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
     """Tell SNES that the last trial point is outside the domain of the residual (e.g. J <= 0)."""
     _check(_libpetsc().SNESSetFunctionDomainError(snes.handle), "SNESSetFunctionDomainError")
+
+
+# --------------------------------------------------------------------------- P2 FEM reference
+def create_triangle_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64],
+                                     x: npt.NDArray[np.float64]) -> dolfinx.mesh.Mesh:
+    """Distributed affine triangle mesh partitioned by DOLFINx's graph partitioner, no ghost cells.
+
+    Parameters
+    ----------
+    cells : (n_cells, 3) int64
+        Input cells held by this rank (usually all on rank 0, none elsewhere).
+    x : (n_nodes, 2) float64
+        Input node coordinates held by this rank.
+    """
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells, dtype=np.int64),
+                                    np.ascontiguousarray(x, dtype=np.float64), domain,
+                                    ghost_mode=dolfinx.mesh.GhostMode.none)
+
+
+def create_cell_tags(mesh: dolfinx.mesh.Mesh, values: npt.NDArray[np.int32]):
+    """Cell tags of all local cells, ``values`` (n_local_cells,) in local cell order."""
+    cells = np.arange(values.size, dtype=np.int32)
+    return dolfinx.mesh.meshtags(mesh, mesh.topology.dim, cells, np.ascontiguousarray(values, dtype=np.int32))
+
+
+def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+    """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
+    return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+
+
+def triangle_quadrature(degree: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Basix's default rule on the reference triangle exact for ``degree`` (the rule FFCx uses for
+    ``metadata={"quadrature_degree": degree}``): points (n, 2) and weights (n,)."""
+    points, weights = basix.make_quadrature(basix.CellType.triangle, degree)
+    return np.asarray(points), np.asarray(weights)
+
+
+class CompiledExpression:
+    """A UFL expression compiled for evaluation at fixed reference points of the cells."""
+
+    def __init__(self, expression: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64]):
+        self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
+        self._mesh = mesh               # DOLFINx >= 0.7 takes it in eval
+        self._n_points = points.shape[0]
+
+    def __call__(self, cells: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
+        """Values (n_cells, n_points, value_size) on the local ``cells``."""
+        values = self._expression.eval(np.ascontiguousarray(cells, dtype=np.int32))
+        return values.reshape(cells.size, self._n_points, -1)

@@ -437,7 +437,7 @@ def quads_with_hanging_nodes(Lx: float, Ly: float, n: int,
 
 # --------------------------------------------------------------------------- gmsh
 @contextlib.contextmanager
-def _gmsh_session() -> Iterator[object]:
+def gmsh_session() -> Iterator[object]:
     """A quiet gmsh session of our own, always finalised; yields the gmsh module."""
     import gmsh
 
@@ -477,7 +477,7 @@ def _surface_regions(gmsh, region_tags: Mapping[str, int] | None) -> dict[int, i
     return regions
 
 
-def _model_cells(gmsh, region_tags: Mapping[str, int] | None
+def model_cells(gmsh, region_tags: Mapping[str, int] | None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """All 2D cells of the current gmsh model as polygons of their corner nodes.
 
@@ -530,14 +530,14 @@ def from_gmsh(source: str | os.PathLike | None = None,
     if source is None:
         import gmsh
 
-        points, offsets, flat, tags = _model_cells(gmsh, region_tags)
+        points, offsets, flat, tags = model_cells(gmsh, region_tags)
     else:
         path = os.fspath(source)
         if not os.path.isfile(path):
             raise FileNotFoundError(path)
-        with _gmsh_session() as gmsh:
+        with gmsh_session() as gmsh:
             gmsh.open(path)
-            points, offsets, flat, tags = _model_cells(gmsh, region_tags)
+            points, offsets, flat, tags = model_cells(gmsh, region_tags)
     return PolygonSet(points, _split(offsets, flat), tags).to_mesh()
 
 
@@ -552,13 +552,13 @@ def _dual_of_gmsh(build: _Builder, h: float) -> PolygonSet:
     returns ``{region tag: surface tags}``; the triangles are Frontal-Delaunay
     (``Mesh.Algorithm`` 6) with ``Mesh.MeshSizeMax = h``.
     """
-    with _gmsh_session() as gmsh:
+    with gmsh_session() as gmsh:
         gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
         for tag, surfaces in build(gmsh, h).items():
             gmsh.model.addPhysicalGroup(2, list(surfaces), tag)
         gmsh.model.mesh.generate(2)
-        points, _, flat, tags = _model_cells(gmsh, None)
+        points, _, flat, tags = model_cells(gmsh, None)
     return dual_polygons(points, flat.reshape(-1, 3), tags)
 
 

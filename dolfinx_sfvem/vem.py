@@ -15,7 +15,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import _compat
+from . import _compat, post
 from .assemble import coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop, zero_constrained_rows
 from .energy import Energy
 from .kernels import EnergyKernels, compile_kernels
@@ -276,13 +276,8 @@ class SFVEMDiscretization:
 
     def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
         """Inverse of :meth:`get_state` for the full set of keys (any partition); ghosts updated."""
-        order = np.argsort(keys)
-        pos = np.searchsorted(keys, self.space.node_key, sorter=order)
-        found = order[np.minimum(pos, keys.size - 1)]
-        if keys.size == 0 or not np.array_equal(keys[found], self.space.node_key):
-            raise ValueError("the saved state does not belong to this mesh (node keys differ)")
         with x.localForm() as xl:
-            xl.array[:] = values[found].ravel()
+            xl.array[:] = post.values_by_key(keys, values, self.space.node_key).ravel()
 
     @property
     def output_mesh(self) -> PolygonMesh:

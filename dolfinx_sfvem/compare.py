@@ -1,0 +1,197 @@
+"""Run a demo with SFVEM and with P2 FEM and compare the two runs (DESIGN §8 cross-check).
+
+Usage::
+
+    python3 -m dolfinx_sfvem.compare cbox [--np N] [--out DIR] [demo options ...]
+
+runs ``demos/<demo>.py --method vem --out DIR/vem ...`` and ``... --method fem --out
+DIR/fem ...`` one after the other (each under ``mpirun -n N`` with ``--np N``), passing
+every other option (the demo's own and PETSc's) through unchanged, reads the two
+``summary.json`` files and prints a table: unknowns, load factor reached, the reaction of
+the ``load`` condition and every recorded observer (``extra``, e.g. ``gap``, ``tip_uy``)
+at the largest load factor both runs reached, Newton iterations, wall times, and the
+relative differences (FEM − SFVEM) / |SFVEM|. The table is written to
+``DIR/comparison.json`` and ``DIR/comparison.md``; each run's output goes to
+``DIR/<method>.log``.
+
+Exit code: 0 if both runs reached the full load, 1 if not, 2 if a run wrote no summary.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import subprocess
+import sys
+import time
+import typing
+
+from . import post
+
+METHODS = ("vem", "fem")
+DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
+
+#: one row of the table: quantity, SFVEM value, FEM value, relative difference (or None)
+Row = tuple[str, typing.Any, typing.Any, typing.Optional[float]]
+
+
+def launcher(np: int | None, mpiexec: str = "mpirun") -> list[str]:
+    """Command prefix running a program on ``np`` MPI ranks (nothing for None); Open MPI's flags
+    ``--oversubscribe`` and, as root, ``--allow-run-as-root`` (as the Makefile)."""
+    if np is None:
+        return []
+    root = ["--allow-run-as-root"] if hasattr(os, "geteuid") and os.geteuid() == 0 else []
+    return [mpiexec, "-n", str(np), *root, "--oversubscribe"]
+
+
+def run_demo(script: pathlib.Path, method: str, out: pathlib.Path, options: typing.Sequence[str],
+             prefix: typing.Sequence[str] = ()) -> tuple[int, float]:
+    """Run one demo with ``--method method --out out``; its output goes to ``out.parent/<method>.log``.
+    A ``summary.json`` left in ``out`` by an earlier run is removed first.
+
+    Returns
+    -------
+    (exit code, wall time in s of the whole process: start-up, meshing, JIT and solve)
+    """
+    cmd = [*prefix, sys.executable, str(script), "--method", method, "--out", str(out), *options]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").unlink(missing_ok=True)
+    print(f"[{method}] {' '.join(cmd)}", flush=True)
+    t0 = time.perf_counter()
+    with open(out.parent / f"{method}.log", "w") as log:
+        # os.environ is Python's start-up copy: it lacks the variables this process's MPI
+        # initialisation (importing the package initialises mpi4py) set, with which mpirun fails
+        code = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    wall = time.perf_counter() - t0
+    print(f"[{method}] exit code {code}, {wall:.1f} s (log: {out.parent / f'{method}.log'})", flush=True)
+    return code, wall
+
+
+def _relative(a, b) -> float | None:
+    """(b - a) / |a| for finite numbers; None for anything else and for a = 0 != b."""
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in (a, b)):
+        return None
+    if a == 0:
+        return 0.0 if b == 0 else None
+    return (b - a) / abs(a)
+
+
+def _converged_steps(summary: typing.Mapping) -> list[dict]:
+    return [s for s in summary.get("steps", []) if s.get("converged")]
+
+
+def common_load(vem: typing.Mapping, fem: typing.Mapping, tol: float = 1e-9) -> float | None:
+    """The largest load factor at which both runs have a converged step."""
+    loads = [s["load"] for s in _converged_steps(fem)]
+    shared = [s["load"] for s in _converged_steps(vem) if any(abs(s["load"] - f) <= tol for f in loads)]
+    return max(shared, default=None)
+
+
+def _step_at(summary: typing.Mapping, load: float | None, tol: float = 1e-9) -> dict:
+    if load is None:
+        return {}
+    return next(s for s in _converged_steps(summary) if abs(s["load"] - load) <= tol)
+
+
+def compare(vem: typing.Mapping, fem: typing.Mapping, process_wall: typing.Mapping[str, float] | None = None
+            ) -> list[Row]:
+    """The comparison table of two ``summary.json`` contents (SFVEM, FEM).
+
+    Quantities at the largest load factor both reached (:func:`common_load`): the ``load``
+    reaction and every observer in ``extra``; over the whole run: unknowns, load reached,
+    Newton iterations (all attempts, failed ones included), failed attempts, wall times.
+    """
+    load = common_load(vem, fem)
+    at = {"vem": _step_at(vem, load), "fem": _step_at(fem, load)}
+    runs = {"vem": vem, "fem": fem}
+
+    def row(name: str, get: typing.Callable[[str], typing.Any]) -> Row:
+        a, b = get("vem"), get("fem")
+        return name, a, b, _relative(a, b)
+
+    rows = [row("unknowns", lambda m: runs[m].get("dofs")),
+            row("load factor reached", lambda m: max([s["load"] for s in _converged_steps(runs[m])], default=0.0)),
+            row("converged", lambda m: runs[m].get("converged")),
+            ("compared at load factor", load, load, None)]
+    if any("load" in at[m].get("reaction", {}) for m in METHODS):
+        for c, axis in enumerate("xy"):
+            rows.append(row(f"reaction load R{axis}",
+                            lambda m, c=c: at[m].get("reaction", {}).get("load", [None] * 2)[c]))
+    for name in sorted({k for m in METHODS for k in at[m].get("extra", {})}):
+        rows.append(row(name, lambda m, name=name: at[m].get("extra", {}).get(name)))
+    rows += [row("Newton iterations (total)", lambda m: sum(s["newton_iterations"] for s in runs[m].get("steps", []))),
+             row("failed step attempts", lambda m: sum(not s["converged"] for s in runs[m].get("steps", []))),
+             row("solve wall time [s]", lambda m: runs[m].get("wall_time_s"))]
+    if process_wall is not None:
+        rows.append(row("process wall time [s]", lambda m: process_wall.get(m)))
+    return rows
+
+
+def _format(value) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def markdown(rows: typing.Sequence[Row]) -> str:
+    """The table in Markdown; the last column is (FEM − SFVEM) / abs(SFVEM)."""
+    lines = ["| quantity | SFVEM | P2 FEM | FEM vs SFVEM |", "|---|---|---|---|"]
+    for name, a, b, rel in rows:
+        diff = "–" if rel is None else f"{rel:+.3%}"
+        lines.append(f"| {name} | {_format(a)} | {_format(b)} | {diff} |")
+    return "\n".join(lines) + "\n"
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python3 -m dolfinx_sfvem.compare", allow_abbrev=False,
+                                description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                epilog="Every other option is passed to both runs of the demo.")
+    p.add_argument("demo", help="demo name: demos/<demo>.py (e.g. cbox)")
+    p.add_argument("--out", type=pathlib.Path, default=None, help="output directory (default out/compare/<demo>)")
+    p.add_argument("--np", type=int, default=None, help="run each method under mpirun with this many ranks")
+    p.add_argument("--mpiexec", default="mpirun", help="MPI launcher (default %(default)s)")
+    p.add_argument("--demos", type=pathlib.Path, default=DEMOS,
+                   help="directory of the demo scripts (default %(default)s)")
+    return p
+
+
+def main(argv: typing.Sequence[str] | None = None) -> int:
+    p = parser()
+    args, options = p.parse_known_args(argv)
+    if "--method" in options or any(o.startswith("--method=") for o in options):
+        p.error("--method is set by the comparison (both vem and fem are run)")
+    if args.np is not None and args.np < 1:
+        p.error(f"--np must be >= 1, got {args.np}")
+    script = args.demos / f"{args.demo}.py"
+    if not script.is_file():
+        p.error(f"no demo {script}")
+    out = args.out if args.out is not None else pathlib.Path("out") / "compare" / args.demo
+    codes, walls, summaries = {}, {}, {}
+    for method in METHODS:
+        codes[method], walls[method] = run_demo(script, method, out / method, options, launcher(args.np, args.mpiexec))
+        path = out / method / "summary.json"
+        if not path.is_file():
+            print(f"error: the {method} run wrote no {path} (exit code {codes[method]}); see {out / f'{method}.log'}",
+                  file=sys.stderr)
+            return 2
+        summaries[method] = json.loads(path.read_text())
+    rows = compare(summaries["vem"], summaries["fem"], walls)
+    table = markdown(rows)
+    header = f"# {args.demo}: SFVEM vs P2 FEM\n\nOptions: `{' '.join(options) or '(defaults)'}`" \
+             f"{f', {args.np} MPI ranks' if args.np else ''}. Last column: (FEM − SFVEM) / abs(SFVEM); " \
+             f"quantities at the largest load factor both runs reached.\n\n"
+    post.atomic_write_text(out / "comparison.md", header + table)
+    post.write_json(out / "comparison.json", {
+        "demo": args.demo, "options": list(options), "ranks": args.np or 1, "exit_codes": codes,
+        "rows": [{"quantity": n, "vem": a, "fem": b, "relative_difference": r} for n, a, b, r in rows]})
+    print(table, end="")
+    print(f"written: {out / 'comparison.md'}, {out / 'comparison.json'}")
+    return 0 if all(s.get("converged") for s in summaries.values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

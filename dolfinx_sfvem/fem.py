@@ -1,0 +1,380 @@
+"""P2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
+
+The total energy (paper Eq. 46 with the FEM interpolation in place of the projections)
+
+    Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
+
+is one UFL form with each region's parameters as ``fem.Constant`` s, so a single
+FFCx-compiled form serves every parameter value. The residual is ``ufl.derivative`` of
+Π and the tangent the derivative of the residual: no derivative is written by hand.
+``G_ijk = ∂F_ij/∂X_k = ∂²u_i/∂X_j∂X_k`` is constant in each P2 triangle: the broken
+second gradient, without inter-element jump terms (as the SFVEM's G is polygon-wise).
+
+The class mirrors :class:`~dolfinx_sfvem.vem.SFVEMDiscretization` (the protocol
+:class:`~dolfinx_sfvem.problem.ContactProblem` and the solver use): PETSc vectors with
+block size 2 laid out ``2 * node + component`` (node = blocked P2 dof), Dirichlet rows
+as identity rows with the columns kept, diagnostics as :class:`~dolfinx_sfvem.vem.AssemblyInfo`.
+
+Quadrature: degree 4 by default (6 points per triangle). F is linear and G constant in a
+P2 triangle, so the small-strain part of every energy and the linear-elastic tangent are
+polynomials of degree 2, the regularizations' G:G of degree 0 and the P2 mass matrix
+(body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
+orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan). Measured on the
+C-box at u_y = -0.3 (3138 unknowns): the reaction changes by 3e-5 (relative) from
+degree 2 to 4 and by 1e-8 from 4 to 6; the 15-step solve takes 1.8 / 2.2 / 2.6 s with
+degree 2 / 4 / 6.
+"""
+from __future__ import annotations
+
+import typing
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.la
+
+from . import _compat, post
+from .energy import Energy
+from .mesh import PolygonMesh
+from .remesh import matched_triangulation, p2_unknowns, sfvem_unknowns, triangulate
+from .vem import AssemblyInfo, check_materials
+
+#: default quadrature degree of the energy, residual and tangent (see the module docstring)
+QUADRATURE_DEGREE = 4
+#: degree of the rule used by :meth:`P2Discretization.error_norms`
+ERROR_QUADRATURE_DEGREE = 8
+
+#: P2 dof 3 + k sits on the reference edge opposite vertex k, i.e. between these vertices
+_EDGE_VERTICES = ((1, 2), (0, 2), (0, 1))
+
+
+def _gather_triangles(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The global triangle mesh on every rank, from the owned cells of each rank.
+
+    Returns
+    -------
+    points : (n_points, 2)
+        The geometry nodes used by cells, ordered by input index.
+    triangles : (n_cells, 3) int64
+        Indices into ``points``, ordered by input cell index.
+    tags : (n_cells,) int32
+    point_of_node : (n_local_geometry_nodes,) int64
+        Index in ``points`` of every local geometry node.
+    """
+    n_owned = _compat.num_owned_cells(mesh)
+    geometry = _compat.cell_geometry_nodes(mesh)
+    inp = _compat.input_node_index(mesh)
+    local = (_compat.original_cell_index(mesh)[:n_owned], inp[geometry[:n_owned]],
+             mesh.geometry.x[geometry[:n_owned], :2], cell_tag[:n_owned])
+    cell, nodes, x, tags = (np.concatenate(part) for part in zip(*comm.allgather(local)))
+    inputs, first, triangles = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
+    order = np.argsort(cell)
+    return (x.reshape(-1, 2)[first], triangles.reshape(-1, 3)[order].astype(np.int64), tags[order],
+            np.searchsorted(inputs, inp))
+
+
+class P2Discretization:
+    """P2 Lagrange FEM discretization of Σ_tag ∫ ψ_tag(F, ∇F) dΩ on a DOLFINx triangle mesh.
+
+    Parameters
+    ----------
+    mesh
+        Affine triangle mesh (any partition, ghosted or not).
+    cell_tags
+        Region tag of every local cell (``dolfinx.mesh.meshtags`` of dimension 2).
+    materials
+        Region tag -> energy.
+    comm
+        Communicator (default: the mesh's).
+    quadrature_degree
+        Degree of the quadrature rule of Π, its residual and tangent (default 4).
+    mesh_size
+        The size the mesh was made with, reported by :meth:`describe` (None: unknown).
+    """
+
+    method = "fem"
+
+    def __init__(self, mesh: dolfinx.mesh.Mesh, cell_tags, materials: typing.Mapping[int, Energy],
+                 comm: MPI.Comm | None = None, *, quadrature_degree: int = QUADRATURE_DEGREE,
+                 mesh_size: float | None = None):
+        self.comm = comm if comm is not None else mesh.comm
+        self.mesh = mesh
+        self.quadrature_degree = int(quadrature_degree)
+        self.mesh_size = mesh_size
+        n_local_cells = mesh.topology.index_map(2).size_local + mesh.topology.index_map(2).num_ghosts
+        self.cell_tag = np.full(n_local_cells, np.iinfo(np.int32).min, dtype=np.int64)
+        self.cell_tag[cell_tags.indices] = cell_tags.values
+        points, triangles, tags, point_of_node = _gather_triangles(mesh, self.cell_tag, self.comm)
+        if np.any(tags == np.iinfo(np.int32).min):
+            raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
+        check_materials(tags, materials)
+        self._output_mesh = PolygonMesh(points, triangles, tags, insert_hanging_nodes=False)
+        self.materials = dict(sorted(materials.items()))
+
+        self.V = _compat.vector_function_space(mesh, 2)
+        self.u = dolfinx.fem.Function(self.V, name="u")
+        self._number_nodes(point_of_node)
+        self._build_forms(cell_tags)
+
+    # ------------------------------------------------------------------ set-up
+    def _number_nodes(self, point_of_node: np.ndarray) -> None:
+        """Coordinates, output point and partition-independent key of every local P2 node."""
+        im = self.V.dofmap.index_map
+        n_nodes = im.size_local + im.num_ghosts
+        p2 = _compat.cell_dofs(self.V)
+        vertex_point = point_of_node[_compat.cell_geometry_nodes(self.mesh)]
+        n = self._output_mesh.n_points
+        self.node_point = np.full(n_nodes, -1, dtype=np.int64)
+        self.node_point[p2[:, :3]] = vertex_point
+        self.node_key = self.node_point.copy()
+        for k, (a, b) in enumerate(_EDGE_VERTICES):
+            ends = np.sort(vertex_point[:, [a, b]], axis=1)
+            self.node_key[p2[:, 3 + k]] = n + ends[:, 0] * n + ends[:, 1]
+        self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :2].copy()
+
+    def _build_forms(self, cell_tags) -> None:
+        """Π, its residual and tangent as compiled forms; det F at the quadrature points."""
+        mesh, q = self.mesh, self.quadrature_degree
+        u, v, du = self.u, ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        F = ufl.variable(ufl.Identity(2) + ufl.grad(u))
+        G = ufl.grad(ufl.grad(u))
+        self.dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags, metadata={"quadrature_degree": q})
+        self._constants = {tag: {name: dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
+                                 for name, value in energy.params.items()}
+                           for tag, energy in self.materials.items()}
+        Pi = sum(energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items())
+        residual = ufl.derivative(Pi, u, v)
+        self._energy_form = dolfinx.fem.form(Pi)
+        self._residual_form = dolfinx.fem.form(residual)
+        self._tangent_form = dolfinx.fem.form(ufl.derivative(residual, u, du))
+        points, _ = _compat.triangle_quadrature(q)
+        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, points)
+        self._owned_cells = np.arange(_compat.num_owned_cells(mesh), dtype=np.int32)
+        self._cell_input_index = _compat.original_cell_index(mesh)
+        self._error_terms = None
+
+    def _set_state(self, x: PETSc.Vec) -> None:
+        """u <- x (ghosts included) and the region constants <- the energies' parameters."""
+        with x.localForm() as xl:
+            self.u.x.array[:] = xl.array_r
+        for tag, energy in self.materials.items():
+            for name, value in energy.validate(energy.params).items():
+                self._constants[tag][name].value = value
+
+    # ------------------------------------------------------------------ construction from a polygon mesh
+    @classmethod
+    def from_polygon_mesh(cls, mesh: PolygonMesh, materials: typing.Mapping[int, Energy],
+                          comm: MPI.Comm = MPI.COMM_WORLD, *, fem_h: float | None = None,
+                          quadrature_degree: int = QUADRATURE_DEGREE, verbose: bool = True) -> "P2Discretization":
+        """The P2 discretization of the geometry and regions of a polygon mesh.
+
+        The regions are meshed again with triangles (:func:`~dolfinx_sfvem.remesh.triangulate`,
+        on rank 0) keeping every boundary/interface vertex of ``mesh``.
+
+        Parameters
+        ----------
+        fem_h
+            Triangle size. None: the size at which the P2 unknowns match the SFVEM unknowns
+            of ``mesh`` within 5 % (:func:`~dolfinx_sfvem.remesh.matched_triangulation`),
+            i.e. a comparison at matched DOFs.
+        """
+        h, tri, error = None, None, None
+        if comm.rank == 0:
+            try:
+                h, tri = matched_triangulation(mesh) if fem_h is None else (float(fem_h), triangulate(mesh, fem_h))
+            except ValueError as err:       # raised on every rank, not only where gmsh ran
+                error = err
+        h, tri, error = comm.bcast((h, tri, error), root=0)
+        if error is not None:
+            raise ValueError(str(error))
+        cells, x = (tri.triangles, tri.points) if comm.rank == 0 else (np.empty((0, 3), np.int64), np.empty((0, 2)))
+        dmesh = _compat.create_triangle_mesh_partitioned(comm, cells, x)
+        cell_tags = _compat.create_cell_tags(dmesh, tri.tags[_compat.original_cell_index(dmesh)])
+        disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h)
+        if verbose and comm.rank == 0:
+            matched = "chosen to match" if fem_h is None else "given; SFVEM would have"
+            print(f"P2 FEM: {tri.triangles.shape[0]} triangles, h = {h:.4g} ({matched} "
+                  f"{sfvem_unknowns(mesh)} SFVEM unknowns), {p2_unknowns(tri.triangles)} unknowns on "
+                  f"{comm.size} rank(s), quadrature degree {disc.quadrature_degree}", flush=True)
+        return disc
+
+    # ------------------------------------------------------------------ PETSc objects
+    def create_vector(self) -> PETSc.Vec:
+        """A ghosted PETSc vector of the P2 unknowns (block size 2, local index 2 node + component)."""
+        return dolfinx.la.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.index_map_bs)
+
+    def create_matrix(self) -> PETSc.Mat:
+        """AIJ matrix with the sparsity of the tangent form (the pattern survives zeroed rows)."""
+        A = dolfinx.fem.petsc.create_matrix(self._tangent_form)
+        A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        return A
+
+    # ------------------------------------------------------------------ assembly
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
+        """Internal force b = ∂Π/∂u at x (ghosts of x must be current); ghost contributions
+        accumulated on their owners. J is checked at the quadrature points of the owned cells."""
+        self._set_state(x)
+        with b.localForm() as bl:
+            bl.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, self._residual_form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        energy = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._energy_form), op=MPI.SUM)
+        J = self._det_F(self._owned_cells)[:, :, 0]
+        cell = int(np.argmin(J.min(axis=1))) if J.size else -1
+        local_min = float(J[cell].min()) if J.size else np.inf
+        min_J, rank = self.comm.allreduce((local_min, self.comm.rank), op=MPI.MINLOC)
+        where = (int(self._cell_input_index[cell]), int(self.cell_tag[cell])) if cell >= 0 else (-1, -1)
+        polygon, tag = self.comm.bcast(where, root=rank)
+        return AssemblyInfo(float(energy), float(min_J), polygon, tag)
+
+    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
+        """Tangent ∂²Π/∂u² at x into A; rows of constrained unknowns become identity rows (columns kept).
+
+        Parameters
+        ----------
+        constrained : (n_local_dofs,) bool
+            Constrained unknowns in local (blocked) numbering, consistent across ranks.
+        """
+        self._set_state(x)
+        A.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(A, self._tangent_form)
+        A.assemble()
+        rows = A.getOwnershipRange()[0] + np.flatnonzero(constrained[:self.n_owned_dofs])
+        A.zeroRows(rows.astype(PETSc.IntType), diag=1.0)
+
+    # ------------------------------------------------------------------ loads and fields
+    def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
+        """External force vector ∫ f_h · v dΩ of a body force, f_h its P2 interpolant.
+
+        Parameters
+        ----------
+        f
+            Body force per unit reference area: ``f(x)`` with ``x`` of shape (2, n) returns (2, n).
+        """
+        f_h = dolfinx.fem.Function(self.V)
+        f_h.interpolate(lambda x: np.broadcast_to(np.asarray(f(x[:2]), dtype=np.float64), (2, x.shape[1])))
+        b = self.create_vector()
+        with b.localForm() as bl:
+            bl.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, dolfinx.fem.form(ufl.inner(f_h, ufl.TestFunction(self.V)) * self.dx))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return b
+
+    def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
+                    grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
+        """‖u − u_h‖_L2 and |u − u_h|_H1 = ‖∇u − ∇u_h‖_L2 over the mesh (collective), by a rule of
+        degree :data:`ERROR_QUADRATURE_DEGREE`.
+
+        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
+        """
+        points, weights = _compat.triangle_quadrature(ERROR_QUADRATURE_DEGREE)
+        if self._error_terms is None:
+            X = ufl.SpatialCoordinate(self.mesh)
+            terms = [X[0], X[1], self.u[0], self.u[1]] + [ufl.grad(self.u)[i, j] for i in (0, 1) for j in (0, 1)]
+            terms.append(abs(ufl.JacobianDeterminant(self.mesh)))
+            self._error_terms = _compat.CompiledExpression(ufl.as_vector(terms), self.mesh, points)
+        self._set_state(x)
+        values = self._error_terms(self._owned_cells).reshape(-1, 9)
+        X, u_h, grad_h = values[:, :2].T, values[:, 2:4], values[:, 4:8].reshape(-1, 2, 2)
+        w = np.tile(weights, self._owned_cells.size) * values[:, 8]
+        e0 = np.sum(w * np.sum((np.asarray(u_exact(X)).T - u_h) ** 2, axis=1))
+        e1 = np.sum(w * np.sum((np.moveaxis(np.asarray(grad_exact(X)), -1, 0) - grad_h) ** 2, axis=(1, 2)))
+        return (float(np.sqrt(self.comm.allreduce(e0, op=MPI.SUM))),
+                float(np.sqrt(self.comm.allreduce(e1, op=MPI.SUM))))
+
+    # ------------------------------------------------------------------ locating unknowns
+    def locate_dofs(self, marker=None, tags=None, component: int | None = None) -> np.ndarray:
+        """Local blocked unknowns (owned and ghost) at the P2 nodes selected by marker and/or tags.
+
+        Parameters
+        ----------
+        marker
+            Function of node coordinates ``x`` (2, n) returning a bool array (n,).
+        tags
+            Region tags: all nodes of the cells with these tags (also the nodes this rank holds
+            only through cells of other ranks, so the selection is consistent across ranks).
+        component
+            0, 1, or None for both.
+        """
+        if marker is None and tags is None:
+            raise ValueError("give a marker function, region tags, or both")
+        selected = np.ones(self.x_nodes.shape[0], dtype=bool)
+        if marker is not None:
+            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
+        if tags is not None:
+            cells = np.flatnonzero(np.isin(self.cell_tag, np.fromiter(tags, dtype=np.int64))).astype(np.int32)
+            in_tags = np.zeros_like(selected)
+            in_tags[dolfinx.fem.locate_dofs_topological(self.V, 2, cells)] = True
+            selected &= in_tags
+        nodes = np.flatnonzero(selected)
+        comps = (0, 1) if component is None else (component,)
+        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+
+    @property
+    def n_owned_dofs(self) -> int:
+        return 2 * self.V.dofmap.index_map.size_local
+
+    @property
+    def n_local_dofs(self) -> int:
+        """Owned and ghost unknowns of this rank."""
+        im = self.V.dofmap.index_map
+        return 2 * (im.size_local + im.num_ghosts)
+
+    @property
+    def num_dofs_global(self) -> int:
+        return 2 * self.V.dofmap.index_map.size_global
+
+    def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
+        """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
+        return np.asarray(value(self.x_nodes[dofs // 2].T), dtype=np.float64).reshape(-1)
+
+    # ------------------------------------------------------------------ state (checkpoints)
+    def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2)).
+
+        Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
+        ``n_points + a n_points + b`` for the edge's points ``a < b``.
+        """
+        n_owned = self.V.dofmap.index_map.size_local
+        with x.localForm() as xl:
+            values = xl.array_r.reshape(-1, 2)[:n_owned].copy()
+        return self.node_key[:n_owned].copy(), values
+
+    def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
+        """Inverse of :meth:`get_state` for the full set of keys (any partition)."""
+        with x.localForm() as xl:
+            xl.array[:] = post.values_by_key(keys, values, self.node_key).ravel()
+
+    # ------------------------------------------------------------------ output
+    @property
+    def output_mesh(self) -> PolygonMesh:
+        """The triangles as a polygon mesh (identical on all ranks), for pictures."""
+        return self._output_mesh
+
+    def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """(point indices of ``output_mesh``, displacements (k, 2)) of the vertex nodes on this rank."""
+        vertex = np.flatnonzero(self.node_point >= 0)
+        with x.localForm() as xl:
+            return self.node_point[vertex], xl.array_r.reshape(-1, 2)[vertex].copy()
+
+    def output_function(self, x: PETSc.Vec, u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
+        """The solution as a P2 :class:`dolfinx.fem.Function` (ghost values of x must be current)."""
+        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
+        with x.localForm() as xl:
+            u.x.array[:] = xl.array_r
+        return u
+
+    @property
+    def dolfinx_mesh(self) -> dolfinx.mesh.Mesh:
+        return self.mesh
+
+    def describe(self) -> dict:
+        """Mesh facts for summary.json."""
+        return {"triangles": int(self._output_mesh.n_polygons), "quadrature_degree": self.quadrature_degree,
+                "mesh_size": self.mesh_size}

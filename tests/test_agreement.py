@@ -1,0 +1,123 @@
+"""SFVEM and P2 FEM on the same problems (DESIGN §8 cross-check, issue 4).
+
+- Smooth finite-strain problem without contact: a Hyperelastic unit square whose boundary
+  displacement is the trace of a smooth field (shear and compression, J down to ~0.4).
+  The discrete energies of both methods converge to the same value; their difference
+  falls like ~h^4 (measured rate 4.0 over h = 0.2, 0.1, 0.05).
+- C-box (paper §5.2) at u_y = -0.3 at matched unknowns: the reaction at the load point.
+- The comparison tool (``python -m dolfinx_sfvem.compare``) on a stand-in demo.
+"""
+import json
+import textwrap
+
+import numpy as np
+import pytest
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem import compare
+
+SHEAR, COMPRESSION = 0.2, -0.15
+
+
+def boundary_field(x, component):
+    """Trace of the smooth field (0.2, -0.15) y sin(pi x) on the boundary of the unit square."""
+    return (SHEAR if component == 0 else COMPRESSION) * x[1] * np.sin(np.pi * x[0])
+
+
+def on_boundary(x):
+    return np.isclose(x[0], 0.0) | np.isclose(x[0], 1.0) | np.isclose(x[1], 0.0) | np.isclose(x[1], 1.0)
+
+
+def smooth_energy(method: str, h: float) -> float:
+    """Stored energy of the solution on the polygon mesh of size h (FEM: matched unknowns)."""
+    mesh = sf.meshes.polygon_rectangle(1.0, 1.0, h, tag=1)
+    problem = sf.ContactProblem(mesh, {1: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, method=method, verbose=False)
+    problem.prescribe(on_boundary, ux=lambda x: boundary_field(x, 0), uy=lambda x: boundary_field(x, 1),
+                      name="boundary")
+    assert problem.solve(steps=2).converged
+    info = problem.disc.residual(problem.x, problem.disc.create_vector())
+    assert 0.2 < info.min_J < 0.8          # finite strain, no element near inversion
+    return info.energy
+
+
+@pytest.mark.mpi
+def test_smooth_hyperelastic_energies_converge_together():
+    hs = np.array([0.2, 0.1, 0.05])
+    vem = np.array([smooth_energy("vem", h) for h in hs])
+    fem = np.array([smooth_energy("fem", h) for h in hs])
+    difference = np.abs(vem - fem) / fem
+    rate = np.polyfit(np.log(hs), np.log(difference), 1)[0]
+    assert np.all(np.diff(difference) < 0), difference
+    assert rate >= 2.5, (rate, difference)
+    assert difference[-1] < 2e-5, difference
+    # each method converges as well (not only towards the other): successive changes shrink
+    for energies in (vem, fem):
+        assert abs(energies[2] - energies[1]) < 0.3 * abs(energies[1] - energies[0]), energies
+
+
+# --------------------------------------------------------------------------- C-box
+CBOX_K, CBOX_MU = 5 / 3, 5 / 14
+
+
+def cbox_reaction(method: str, h: float = 0.05, uy: float = -0.3, steps: int = 15) -> tuple[int, float]:
+    """(unknowns, R_y at the load point) of the C-box at u_y (gamma 1e-5, alpha_r 1, rotation)."""
+    box = sf.meshes.cbox(h_solid=h)
+    problem = sf.ContactProblem(box.mesh, {
+        sf.meshes.SOLID: sf.Hyperelastic(K=CBOX_K, mu=CBOX_MU),
+        sf.meshes.MEDIUM: sf.ThirdMedium(mu=CBOX_MU, gamma=1e-5, alpha_r=1.0, regularization="rotation")},
+        method=method, verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0))
+    load = np.asarray(box.points["load"])
+    problem.prescribe(lambda x: np.hypot(x[0] - load[0], x[1] - load[1]) < 1e-10, uy=uy, name="load")
+    result = problem.solve(steps=steps)
+    assert result.converged
+    return problem.disc.num_dofs_global, result.steps[-1]["reaction"]["load"][1]
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "measured: SFVEM R_y = -1.2516e-4 (3002 unknowns), P2 FEM -1.1443e-4 (3138), 9.4 % apart; "
+    "FEM reference (24586 unknowns) -1.1145e-4. The SFVEM solid is 3.9 % too stiff (gamma 1e-9: 3.1 % "
+    "apart) and its medium (regularization) adds 2.2x the FEM's share. 5.2 % apart at h = 0.025."))
+def test_cbox_reaction_agrees_at_matched_unknowns():
+    n_vem, r_vem = cbox_reaction("vem")
+    n_fem, r_fem = cbox_reaction("fem")
+    assert abs(n_fem - n_vem) <= 0.05 * n_vem
+    assert abs(r_fem - r_vem) <= 0.02 * abs(r_vem), (r_vem, r_fem)
+
+
+# --------------------------------------------------------------------------- comparison tool
+FAKE_DEMO = textwrap.dedent("""
+    import argparse, json, pathlib
+    p = argparse.ArgumentParser()
+    p.add_argument("--method"); p.add_argument("--out", type=pathlib.Path); p.add_argument("--uy", type=float)
+    a = p.parse_args()
+    scale = 1.0 if a.method == "vem" else 1.02
+    steps = [{"load": l, "converged": True, "newton_iterations": 3,
+              "reaction": {"load": [0.0, a.uy * scale * l]}, "extra": {"gap": 0.3 + a.uy * l}}
+             for l in (0.5, 1.0)]
+    if a.method == "fem":
+        steps.insert(1, {"load": 1.0, "converged": False, "newton_iterations": 30, "reaction": {}, "extra": {}})
+    a.out.mkdir(parents=True)
+    (a.out / "summary.json").write_text(json.dumps({"method": a.method, "dofs": 100 if a.method == "vem" else 104,
+                                                    "converged": True, "wall_time_s": 1.0, "steps": steps}))
+""")
+
+
+def test_compare_tool_runs_both_methods_and_tabulates(tmp_path, capsys):
+    demos = tmp_path / "demos"
+    demos.mkdir()
+    (demos / "fake.py").write_text(FAKE_DEMO)
+    out = tmp_path / "cmp"
+    assert compare.main(["fake", "--demos", str(demos), "--out", str(out), "--uy", "-0.5"]) == 0
+    table = json.loads((out / "comparison.json").read_text())
+    rows = {r["quantity"]: r for r in table["rows"]}
+    assert rows["unknowns"]["vem"] == 100 and rows["unknowns"]["relative_difference"] == pytest.approx(0.04)
+    assert rows["reaction load Ry"]["fem"] == pytest.approx(-0.51)
+    assert rows["reaction load Ry"]["relative_difference"] == pytest.approx(-0.02)
+    assert rows["gap"]["relative_difference"] == pytest.approx(0.0)
+    assert rows["Newton iterations (total)"]["fem"] == 36 and rows["failed step attempts"]["fem"] == 1
+    assert table["options"] == ["--uy", "-0.5"]
+    assert "| reaction load Ry | -0.5 | -0.51 | -2.000% |" in (out / "comparison.md").read_text()
+    assert "reaction load Ry" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        compare.main(["fake", "--demos", str(demos), "--method", "vem"])

@@ -1,0 +1,206 @@
+"""P2 FEM reference (dolfinx_sfvem.fem): consistency, protocol, convergence (DESIGN §8).
+
+- The tangent is the derivative of the residual and the residual the derivative of the
+  reported energy (central differences), for the solid and every regularization of
+  Table 1 with and without the exp(-βJ) scaling, on a two-region mesh.
+- Identity rows for constrained unknowns, columns kept (the convention of vem.py).
+- Through ContactProblem(method="fem"): a homogeneous uniaxial-stress deformation is
+  reproduced exactly and the reaction equals the exact traction resultant P(F)·N·H.
+- Manufactured small-strain solution: L2 error ~ h^3, H1 error ~ h^2.
+"""
+import json
+import pathlib
+
+import numpy as np
+import pytest
+import scipy.optimize
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem.energy import REGULARIZATIONS
+from dolfinx_sfvem.fem import P2Discretization
+from dolfinx_sfvem.kernels import compile_kernels, evaluate
+from dolfinx_sfvem.remesh import p2_unknowns, sfvem_unknowns, triangulate
+from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
+
+STEP = 1e-6
+RTOL = 1e-6
+SOLID = sf.Hyperelastic(K=2.0, mu=0.7)
+
+
+def two_regions() -> sf.PolygonMesh:
+    """[0, 2] x [0, 1]: region 1 left, region 2 right, 2 x 2 quads each."""
+    return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, tag=1),
+                          sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, origin=(1.0, 0.0), tag=2))
+
+
+def medium(regularization, beta):
+    """A medium whose regularization is as large as its bulk part (test_energy's values)."""
+    return sf.ThirdMedium(mu=0.3, gamma=1.5, alpha_r=1.0 if beta is None else 150.0, K=0.2,
+                          regularization=regularization, beta=beta)
+
+
+def nodal_field(disc, values):
+    """A ghosted vector with ``values(x (n, 2), key (n,)) -> (n, 2)`` at every local node."""
+    x = disc.create_vector()
+    with x.localForm() as xl:
+        xl.array[:] = values(disc.x_nodes, disc.node_key).ravel()
+    return x
+
+
+def state(disc):
+    """A smooth finite deformation plus node-key noise (partition independent)."""
+    def values(X, key):
+        smooth = 0.1 * np.stack([np.sin(2 * X[:, 0] + X[:, 1]), np.cos(X[:, 0] - 2 * X[:, 1])], axis=1)
+        return smooth + 0.01 * np.stack([np.sin(12.9898 * key), np.sin(78.233 * key)], axis=1)
+    return nodal_field(disc, values)
+
+
+def direction(disc):
+    return nodal_field(disc, lambda X, key: np.stack([np.cos(3.7 * key), np.sin(5.3 * key + 1.0)], axis=1))
+
+
+def residual_at(disc, x, d, eps):
+    """(b(x + eps d), energy) with ghosts of the shifted state updated."""
+    y = x.copy()
+    y.axpy(eps, d)
+    y.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    b = disc.create_vector()
+    info = disc.residual(y, b)
+    assert info.min_J > 0
+    return b, info.energy
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("beta", [None, 5.0])
+@pytest.mark.parametrize("regularization", sorted(REGULARIZATIONS))
+def test_tangent_and_residual_match_finite_differences(regularization, beta):
+    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium(regularization, beta)},
+                                              fem_h=0.35, verbose=False)
+    x, d = state(disc), direction(disc)
+    b, _ = residual_at(disc, x, d, 0.0)
+    A = disc.create_matrix()
+    disc.jacobian(x, A, np.zeros(disc.n_local_dofs, dtype=bool))
+    Ad = disc.create_vector()
+    A.mult(d, Ad)
+
+    (b_plus, e_plus), (b_minus, e_minus) = residual_at(disc, x, d, STEP), residual_at(disc, x, d, -STEP)
+    fd = b_plus.copy()
+    fd.axpy(-1.0, b_minus)
+    fd.scale(1 / (2 * STEP))
+    error = Ad.copy()
+    error.axpy(-1.0, fd)
+    assert error.norm() <= RTOL * fd.norm(), (error.norm(), fd.norm())
+
+    # the residual is the gradient of the reported (globally summed) energy
+    assert np.isclose(b.dot(d), (e_plus - e_minus) / (2 * STEP), rtol=RTOL, atol=0.0)
+
+
+@pytest.mark.mpi
+def test_constrained_rows_are_identity_rows_with_columns_kept():
+    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+                                              fem_h=0.35, verbose=False)
+    x, d = state(disc), direction(disc)
+    constrained = np.zeros(disc.n_local_dofs, dtype=bool)
+    constrained[disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0), component=1)] = True
+    A, A_c = disc.create_matrix(), disc.create_matrix()
+    disc.jacobian(x, A, np.zeros_like(constrained))
+    disc.jacobian(x, A_c, constrained)
+    y, y_c = disc.create_vector(), disc.create_vector()
+    A.mult(d, y)
+    A_c.mult(d, y_c)
+    n = disc.n_owned_dofs
+    c = constrained[:n]
+    assert MPI.COMM_WORLD.allreduce(int(c.sum()), op=MPI.SUM) > 0
+    assert np.allclose(y_c.array[c], d.array[c], rtol=0, atol=1e-14)
+    assert np.allclose(y_c.array[~c], y.array[~c], rtol=1e-13, atol=1e-13 * np.abs(y.array).max())
+
+
+def uniaxial_stretch(energy, stretch):
+    """F = diag(stretch, lambda_2) with P_22 = 0 (top/bottom traction free), and P (2, 2)."""
+    kernels = compile_kernels(energy)
+
+    def P(l2):
+        return evaluate(kernels, np.diag([stretch, l2]), None, energy.params)["P"]
+
+    l2 = scipy.optimize.brentq(lambda l2: P(l2)[1, 1], 0.5, 1.5, xtol=1e-15)
+    return np.diag([stretch, l2]), P(l2)
+
+
+@pytest.mark.mpi
+def test_contact_problem_with_fem_reproduces_homogeneous_deformation(tmp_path):
+    """Same ContactProblem code path as the SFVEM: BCs with function values, Newton, reactions, output."""
+    comm = MPI.COMM_WORLD
+    energy = sf.Hyperelastic(K=5 / 3, mu=5 / 14)
+    F, P = uniaxial_stretch(energy, 1.2)
+    H = 1.0
+    mesh = sf.meshes.polygon_rectangle(2.0, H, 0.5, tag=3)
+    problem = sf.ContactProblem(mesh, {3: energy}, method="fem", fem_h=0.3, verbose=False)
+    assert problem.disc.method == "fem"
+    right = lambda x: np.isclose(x[0], 2.0)                                                   # noqa: E731
+    rest = lambda x: (np.isclose(x[0], 0.0) | np.isclose(x[1], 0.0) | np.isclose(x[1], H)) & ~right(x)  # noqa: E731
+    G = F - np.eye(2)
+    problem.prescribe(right, ux=lambda x: G[0] @ x, uy=lambda x: G[1] @ x, name="right")
+    problem.prescribe(rest, ux=lambda x: G[0] @ x, uy=lambda x: G[1] @ x, name="rest")
+    out = pathlib.Path(comm.bcast(str(tmp_path), root=0))
+    result = problem.solve(steps=2, out=out)
+
+    assert result.converged
+    assert all(s["newton_iterations"] <= 6 for s in result.steps)
+    e0, e1 = problem.disc.error_norms(problem.x, lambda x: G @ x, lambda x: np.repeat(G[:, :, None], x.shape[1], 2))
+    assert e0 < 1e-12 and e1 < 1e-12
+    # Σ of the nodal reactions on the right side = ∫_right P N ds = P[:, 0] H exactly (P N = 0 on top/bottom)
+    assert np.allclose(result.steps[-1]["reaction"]["right"], P[:, 0] * H, rtol=1e-9, atol=1e-12)
+    if comm.rank == 0:
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["method"] == "fem" and summary["triangles"] == problem.disc.output_mesh.n_polygons
+        assert summary["dofs"] == p2_unknowns(problem.disc.output_mesh.vertices.reshape(-1, 3))
+        assert (out / "deformed.png").is_file()
+    u = problem.point_displacements()
+    if comm.rank == 0:
+        points = problem.disc.output_mesh.points
+        assert np.allclose(u, points @ G.T, atol=1e-12)
+
+
+def test_named_points_stay_vertices():
+    box = sf.meshes.cbox(h_solid=0.1)
+    tri = triangulate(box.mesh, 0.2)
+    for name, xy in box.points.items():
+        assert np.min(np.linalg.norm(tri.points - np.asarray(xy), axis=1)) == 0.0, name
+    areas = {tag: sum(box.mesh.areas[box.mesh.tags == tag]) for tag in (1, 2)}
+    a, b, c = (tri.points[tri.triangles[:, k]] for k in range(3))
+    tri_area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    for tag, area in areas.items():
+        assert np.isclose(tri_area[tri.tags == tag].sum(), area, rtol=1e-12)
+
+
+def test_matched_triangulation_matches_the_sfvem_unknowns():
+    mesh = sf.meshes.cbox(h_solid=0.1).mesh
+    target = sf.VEMSpace(mesh, verbose=False).num_dofs_global
+    assert sfvem_unknowns(mesh) == target
+    materials = {1: SOLID, 2: medium("rotation", None)}
+    disc = P2Discretization.from_polygon_mesh(mesh, materials, verbose=False)
+    assert disc.num_dofs_global == p2_unknowns(disc.output_mesh.vertices.reshape(-1, 3))
+    assert abs(disc.num_dofs_global - target) <= 0.05 * target
+    assert disc.describe()["mesh_size"] > 0
+
+
+def solve_errors_fem(h, comm=MPI.COMM_WORLD):
+    """(h, L2 error, H1 error) of the P2 solution of test_convergence's problem on triangles of size h."""
+    square = sf.meshes.quad_rectangle(1.0, 1.0, 1, 1)
+    energy = sf.UserEnergy(small_strain, uses_gradient=False, lam=LAM, mu=MU)
+    problem = sf.ContactProblem(square, {0: energy}, method="fem", fem_h=h, comm=comm, verbose=False)
+    problem.fix(on_boundary)
+    problem.body_force(body_force)
+    assert problem.solve(steps=1).converged
+    return (h, *problem.disc.error_norms(problem.x, u_exact, grad_exact))
+
+
+@pytest.mark.mpi
+def test_manufactured_solution_rates():
+    results = [solve_errors_fem(h) for h in (0.2, 0.1, 0.05)]
+    rate_L2, rate_H1 = rates(results)
+    assert 2.7 <= rate_L2 <= 3.5, (rate_L2, results)
+    assert 1.8 <= rate_H1 <= 2.4, (rate_H1, results)
+    assert results[-1][1] < 1e-3 * AMPLITUDE and results[-1][2] < 1e-2 * AMPLITUDE
