@@ -100,7 +100,7 @@ def compare(vem: typing.Mapping, fem: typing.Mapping, process_wall: typing.Mappi
     """The comparison table of two ``summary.json`` contents (SFVEM, FEM).
 
     Quantities at the largest load factor both reached (:func:`common_load`): the ``load``
-    reaction and every observer in ``extra``; over the whole run: unknowns, load reached,
+    reaction, max |u| and every observer in ``extra``; over the whole run: unknowns, load reached,
     Newton iterations (all attempts, failed ones included), failed attempts, wall times.
     """
     load = common_load(vem, fem)
@@ -119,6 +119,8 @@ def compare(vem: typing.Mapping, fem: typing.Mapping, process_wall: typing.Mappi
         for c, axis in enumerate("xy"):
             rows.append(row(f"reaction load R{axis}",
                             lambda m, c=c: at[m].get("reaction", {}).get("load", [None] * 2)[c]))
+    if any("max_displacement" in at[m] for m in METHODS):
+        rows.append(row("max |u|", lambda m: at[m].get("max_displacement")))
     for name in sorted({k for m in METHODS for k in at[m].get("extra", {})}):
         rows.append(row(name, lambda m, name=name: at[m].get("extra", {}).get(name)))
     rows += [row("Newton iterations (total)", lambda m: sum(s["newton_iterations"] for s in runs[m].get("steps", []))),

@@ -181,6 +181,13 @@ class ContactProblem:
         b.destroy()
         return out
 
+    def max_displacement(self) -> float:
+        """Largest nodal displacement magnitude max |u| over all ranks (collective)."""
+        with self.x.localForm() as xl:
+            u = xl.array_r.reshape(-1, 2)[:self.disc.n_owned_dofs // 2]
+            local = float(np.sqrt((u ** 2).sum(axis=1)).max(initial=0.0))
+        return self.comm.allreduce(local, op=MPI.MAX)
+
     def point_displacements(self) -> np.ndarray | None:
         """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
         indices, values = self.disc.output_point_displacements(self.x)
@@ -246,6 +253,7 @@ class ContactProblem:
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
             rec.reaction = self.reactions(dofs_of, load)
+            rec.max_displacement = self.max_displacement()
             rec.extra = {name: float(f(self)) for name, f in observers.items()}
             records.append(asdict(rec))
             self._progress(rec)

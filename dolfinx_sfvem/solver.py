@@ -203,6 +203,7 @@ class StepRecord:
     converged: bool
     reaction: dict[str, list[float]] = field(default_factory=dict)
     min_J: float = float("nan")
+    max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)
 

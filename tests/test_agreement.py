@@ -135,3 +135,13 @@ def test_compare_tool_runs_both_methods_and_tabulates(tmp_path, capsys):
     assert "reaction load Ry" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         compare.main(["fake", "--demos", str(demos), "--method", "vem"])
+
+
+def test_compare_tool_tabulates_max_displacement(tmp_path):
+    """max |u| recorded per step by ContactProblem appears in the table with its relative difference."""
+    vem = {"dofs": 10, "converged": True, "wall_time_s": 1.0,
+           "steps": [{"load": 1.0, "converged": True, "newton_iterations": 2, "max_displacement": 0.5}]}
+    fem = {**vem, "steps": [{**vem["steps"][0], "max_displacement": 0.4}]}
+    rows = {r[0]: r for r in compare.compare(vem, fem)}
+    assert rows["max |u|"][1:3] == (0.5, 0.4)
+    assert rows["max |u|"][3] == pytest.approx(-0.2)
