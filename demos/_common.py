@@ -186,11 +186,13 @@ def displacement_observer(problem: sf.ContactProblem, marker: typing.Callable[[n
 
 # --------------------------------------------------------------------------- driver
 def run(problem: sf.ContactProblem, args: argparse.Namespace,
-        observers: typing.Mapping[str, typing.Callable[[sf.ContactProblem], float]] | None = None) -> int:
+        observers: typing.Mapping[str, typing.Callable[[sf.ContactProblem], float]] | None = None,
+        **solve_options) -> int:
     """Solve the load path, write the outputs to ``args.out`` and report.
 
     The command-line arguments (except ``--out`` and ``--quiet``) are stored in the
-    "parameters" of summary.json.
+    "parameters" of summary.json. ``solve_options`` (e.g. ``min_increment``) go to
+    :meth:`~dolfinx_sfvem.ContactProblem.solve`.
 
     Returns
     -------
@@ -198,7 +200,8 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         Exit code: 0 if the full load was reached, 1 otherwise.
     """
     problem.parameters.update({k: v for k, v in vars(args).items() if k not in ("out", "quiet", "resume")})
-    result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None)
+    result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None,
+                           **solve_options)
     if problem.comm.rank == 0:
         files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
         print(f"outputs in {args.out}/: {', '.join(files)}")
