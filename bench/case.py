@@ -172,7 +172,8 @@ def run_load_path(problem: sf.ContactProblem, geometry: str, comm: MPI.Comm) -> 
             "wall": float(result.wall_time_s), "assembly_wall": assembly,
             "residual_wall": wall.get("residual", 0.0), "jacobian_wall": wall.get("jacobian", 0.0),
             "linear_solve_wall": linear, "lu_factorization_wall": event["MatLUFactorNum"],
-            "line_search_wall": event["SNESLineSearch"], "snes_wall": event["SNESSolve"], "other_wall": float(result.wall_time_s) - assembly - linear}
+            "line_search_wall": event["SNESLineSearch"], "snes_wall": event["SNESSolve"],
+            "other_wall": float(result.wall_time_s) - assembly - linear}
 
 
 def mesh_facts(problem: sf.ContactProblem, comm: MPI.Comm) -> dict:
@@ -222,7 +223,7 @@ def versions() -> dict:
     return {"dolfinx": dolfinx.__version__, "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
             "petsc4py": petsc4py.__version__,
             "ffcx": ffcx.__version__, "numba": numba.__version__, "numpy": np.__version__,
-            "mpi": MPI.Get_library_version().splitlines()[0].strip()}
+            "mpi": MPI.Get_library_version().splitlines()[0].strip().strip("\x00")}
 
 
 def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:

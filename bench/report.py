@@ -1,5 +1,7 @@
 """From the measurements of the benchmark processes to results.json, the table and results.md.
 
+Standard library only: the driver may run on any Python 3.10+.
+
 What each reported quantity is: :data:`DEFINITIONS` (also written to results.md).
 """
 from __future__ import annotations
@@ -7,9 +9,8 @@ from __future__ import annotations
 import math
 import os
 import platform
+import statistics
 import typing
-
-import numpy as np
 
 METHODS = ("vem", "fem")
 SETUP_STAGES = ("mesh", "discretization", "matrix")
@@ -39,6 +40,11 @@ All times are wall times unless marked CPU.
 - breakdown: share of the residual (tangent) time in the SFVEM compiled polygon loop and,
   for the tangent, in the COO insertion into the PETSc matrix (1 rank, largest size);
 - growth exponent: least-squares slope of log(assembly time) against log(polygons).
+
+Caveats: the machine may be shared (the load average before and after is recorded);
+minima over repeats and over two passes per size damp, but do not remove, slowdowns
+caused by other work, and the MPI speed-up is the most sensitive to them. Under MPI
+the CPU times include Open MPI's busy waiting and are not used for the speed-up.
 """
 
 
@@ -63,7 +69,7 @@ def machine(versions: typing.Mapping[str, str]) -> dict:
     """CPU model, cores, memory, OS, load and library versions (``versions`` from a benchmark process)."""
     return {"cpu_model": _cpu_model(), "logical_cpus": os.cpu_count(),
             "usable_cpus": len(os.sched_getaffinity(0)), "memory_gib": round(_memory_gib(), 1),
-            "os": platform.platform(), "python": platform.python_version(), **versions}
+            "os": platform.platform(), **versions}
 
 
 # --------------------------------------------------------------------------- derived quantities
@@ -117,18 +123,18 @@ def growth_exponent(sizes: typing.Sequence[dict], key: str = "polygons") -> dict
     """Least-squares slopes of log(time) against log(sizes[key]) for residual, tangent and both."""
     if len(sizes) < 2:
         return None
-    x = np.log([s[key] for s in sizes])
+    x = [math.log(s[key]) for s in sizes]
     times = {"residual": [s["assembly"]["residual"]["wall"] for s in sizes],
              "jacobian": [s["assembly"]["jacobian"]["wall"] for s in sizes],
              "assembly": [assembly_time(s) for s in sizes]}
-    return {part: float(np.polyfit(x, np.log(t), 1)[0]) for part, t in times.items()}
+    return {part: statistics.linear_regression(x, [math.log(v) for v in t]).slope for part, t in times.items()}
 
 
 def compute_time_ms(size: dict) -> float:
     """Per-cell computation time (ms) of one residual + one tangent on the slowest rank."""
     parts = size["assembly_breakdown_ms_per_rank"]
-    per_rank = np.sum([parts[p] for p in COMPUTE_PARTS[size["method"]]], axis=0)
-    return float(np.max(per_rank))
+    per_rank = [sum(ranks) for ranks in zip(*(parts[p] for p in COMPUTE_PARTS[size["method"]]))]
+    return max(per_rank)
 
 
 def mpi_speedup(serial: dict, parallel: dict) -> dict:
@@ -140,6 +146,15 @@ def mpi_speedup(serial: dict, parallel: dict) -> dict:
     out["assembly"] = assembly_time(serial) / assembly_time(parallel)
     out["compute"] = compute_time_ms(serial) / compute_time_ms(parallel)
     return out
+
+
+def load_path_summary(size: dict) -> dict[str, float]:
+    """Total time of the load path, the shares of assembly and linear solve, residuals per iteration."""
+    lp = size["load_path"]
+    its = max(lp["newton_iterations"], 1)
+    return {"wall": lp["wall"], "assembly_share": lp["assembly_wall"] / lp["wall"],
+            "linear_solve_share": lp["linear_solve_wall"] / lp["wall"],
+            "residuals_per_iteration": lp["residual_calls"] / its, "converged": lp["converged"]}
 
 
 def breakdown_shares(size: dict) -> dict[str, float]:
@@ -186,6 +201,7 @@ def derive(main: dict, mpi: dict, startups: dict) -> dict:
                        "ratio_vem_over_fem": ratio_vem_over_fem(v, f)} for v, f in zip(vem, fem)],
             "growth_exponent_vem_vs_polygons": growth_exponent(vem),
             "breakdown_largest": {"vem": breakdown_shares(vem[-1]), "fem": breakdown_shares(fem[-1])},
+            "load_path_largest": {"vem": load_path_summary(vem[-1]), "fem": load_path_summary(fem[-1])},
             "mpi_speedup": {m: mpi_speedup(runs[m]["sizes"][-1], mpi[geometry][m]["sizes"][0]) for m in METHODS},
         }
     for method, cold in startups.items():
@@ -251,6 +267,13 @@ def key_figures(derived: dict, ranks: int) -> list[str]:
                      f"{100 * b['residual_loop_share_of_residual']:.0f}% in the polygon loop; tangent "
                      f"{b['jacobian_ms']:.1f} ms, {100 * b['tangent_loop_share_of_jacobian']:.0f}% in the polygon "
                      f"loop, {100 * b['matrix_insert_share_of_jacobian']:.0f}% in the COO insertion")
+        lp = g["load_path_largest"]
+        v, f = lp["vem"], lp["fem"]
+        lines.append(f"{geometry}, largest size, load path: SFVEM {v['wall']:.1f} s (assembly "
+                     f"{100 * v['assembly_share']:.0f}%, linear solve {100 * v['linear_solve_share']:.0f}%), "
+                     f"FEM {f['wall']:.1f} s (assembly {100 * f['assembly_share']:.0f}%, linear solve "
+                     f"{100 * f['linear_solve_share']:.0f}%); {v['residuals_per_iteration']:.1f} residuals per "
+                     f"Newton iteration (line search, reactions)")
         e = g["growth_exponent_vem_vs_polygons"]
         if e is not None:
             lines.append(f"{geometry}: SFVEM assembly time ~ polygons^{e['assembly']:.2f} "

@@ -36,6 +36,9 @@ import time
 import typing
 
 HERE = pathlib.Path(__file__).resolve().parent
+#: the interpreter of the benchmark processes: the repository's venv (``make install``) if
+#: there is one, else this one; the driver itself needs only the standard library
+PYTHON = next((str(p) for p in [HERE.parent / ".venv" / "bin" / "python"] if p.exists()), sys.executable)
 sys.path.insert(0, str(HERE))
 import report  # noqa: E402
 from geometries import GEOMETRIES  # noqa: E402
@@ -80,7 +83,7 @@ class Runner:
         """Run ``case.py`` for one geometry and method; its JSON, with the process wall time added."""
         raw = self.out / "raw" / f"{name}.json"
         raw.unlink(missing_ok=True)
-        cmd = [*(mpi_launcher(np) if np > 1 else []), sys.executable, str(HERE / "case.py"),
+        cmd = [*(mpi_launcher(np) if np > 1 else []), PYTHON, str(HERE / "case.py"),
                "--geometry", geometry, "--method", method, "--h", *map(str, sizes), "--json", str(raw), *options]
         log = self.out / "logs" / f"{name}.log"
         print(f"[bench] {name}: {geometry} {method} h = {', '.join(map(str, sizes))} on {np} rank(s)", flush=True)
@@ -141,7 +144,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         startups, main_runs, mpi = measure(Runner(args.out, caches), args.geometries, args.quick, min_time)
     finally:
         shutil.rmtree(caches, ignore_errors=True)
-    machine = {**report.machine(main_runs[args.geometries[0]]["vem"]["versions"]),
+    machine = {**report.machine(main_runs[args.geometries[0]]["vem"]["versions"]), "interpreter": PYTHON,
                "load_average_before": load_before, "load_average_after": [round(x, 2) for x in os.getloadavg()]}
     derived = report.derive(main_runs, mpi, startups)
     rows = report.table_rows(main_runs)
