@@ -28,6 +28,10 @@ import numpy as np
 
 from .monomials import evaluate_monomials
 
+#: fast-math flags of the contraction loops: FMA and reassociated sums (vectorisable);
+#: NaN/Inf semantics unchanged (the J check must see NaN)
+CONTRACT = {"contract", "reassoc"}
+
 
 @numba.njit(cache=True)
 def _projected_derivatives(x, xE, hE, l, Pi_m, m, dm, dphi, d2phi):
@@ -47,24 +51,6 @@ def _projected_derivatives(x, xE, hE, l, Pi_m, m, dm, dphi, d2phi):
             dphi[j, a] = s
             d2phi[j, 0, a] = s0
             d2phi[j, 1, a] = s1
-
-
-@numba.njit(cache=True)
-def _deformation(ue, dphi, d2phi, c, F_at, G_at):
-    """Write F = I + ∇u (row-major) and G_ijk = ∂F_ij/∂X_k into the constants array; return J."""
-    nd = ue.shape[0]
-    for i in range(2):
-        for j in range(2):
-            s = 1.0 if i == j else 0.0
-            for a in range(nd):
-                s += ue[a, i] * dphi[j, a]
-            c[F_at + 2 * i + j] = s
-            for k in range(2):
-                g = 0.0
-                for a in range(nd):
-                    g += ue[a, i] * d2phi[j, k, a]
-                c[G_at + 4 * i + 2 * j + k] = g
-    return c[F_at] * c[F_at + 3] - c[F_at + 1] * c[F_at + 2]
 
 
 @numba.njit(cache=True)
@@ -98,8 +84,91 @@ def _ufcx_arguments():
 
 
 @numba.njit(cache=True)
+def basis_derivative_tables(dof_off, l, xE, hE, pim_off, Pi_m, q_off, x_q, nphi, phi_off):
+    """Φ = [dphi; d2phi] (Eqs. 43, 45) of every polygon at its quadrature points.
+
+    Parameters
+    ----------
+    nphi : (n_polygons,) int64
+        Rows per point: 2 (first derivatives, energies without gradient) or 6.
+    phi_off : (n_polygons + 1,) int64
+        Offsets of the tables, ``phi_off[e + 1] - phi_off[e] = nd(e) n_q(e) nphi[e]``.
+
+    Returns
+    -------
+    Phi : (phi_off[-1],) float64
+        Polygon e's table at ``Phi[phi_off[e]:phi_off[e + 1]]``, shape (nd(e), n_q(e), nphi[e])
+        row-major; row α of point q is ``[∂_0φ, ∂_1φ, ∂_0∂_0φ, ∂_1∂_0φ, ∂_0∂_1φ, ∂_1∂_1φ][α]``:
+        α = 2 + 2j + k is ∂_k of the projected ∂_jφ (d2phi[j, k]).
+    """
+    Phi = np.empty(phi_off[-1])
+    m, dm = _monomial_scratch(l)
+    for e in range(dof_off.size - 1):
+        nd = dof_off[e + 1] - dof_off[e]
+        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
+        dphi = np.empty((2, nd))
+        d2phi = np.empty((2, 2, nd))
+        nq = q_off[e + 1] - q_off[e]
+        table = _table(Phi, phi_off, e, nd, nq * nphi[e]).reshape(nd, nq, nphi[e])
+        for q in range(nq):
+            _projected_derivatives(x_q[q_off[e] + q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
+            for a in range(nd):
+                table[a, q, 0] = dphi[0, a]
+                table[a, q, 1] = dphi[1, a]
+                if nphi[e] == 6:
+                    for j in range(2):
+                        for k in range(2):
+                            table[a, q, 2 + 2 * j + k] = d2phi[j, k, a]
+    return Phi
+
+
+@numba.njit(cache=True)
+def _table(Phi, phi_off, e, nd, n):
+    """Polygon e's basis derivative table as (nd, n_q nphi)."""
+    return Phi[phi_off[e]:phi_off[e + 1]].reshape(nd, n)
+
+
+@numba.njit(cache=True, fastmath=CONTRACT)
+def _gradients(ue, table):
+    """∇u and ∇∇u at all points of a polygon: ``grad[i, k] = Σ_a u_ai Φ[a, k]``, (2, n_q nphi)."""
+    nd, n = table.shape
+    grad = np.zeros((2, n))
+    for a in range(nd):
+        u0, u1 = ue[a, 0], ue[a, 1]
+        for k in range(n):
+            grad[0, k] += u0 * table[a, k]
+            grad[1, k] += u1 * table[a, k]
+    return grad
+
+
+@numba.njit(cache=True)
+def _set_deformation(grad, q, nphi, c, F_at, G_at):
+    """Write F = I + ∇u and G_ijk = ∂F_ij/∂X_k (row-major) of point q into the constants; return J.
+
+    G is left alone when ``nphi`` is 2 (energy without gradient).
+    """
+    for i in range(2):
+        for al in range(nphi):
+            s = grad[i, q * nphi + al]
+            if al < 2:
+                c[F_at + 2 * i + al] = s + (1.0 if i == al else 0.0)
+            else:
+                c[G_at + 4 * i + al - 2] = s
+    return c[F_at] * c[F_at + 3] - c[F_at + 1] * c[F_at + 2]
+
+
+@numba.njit(cache=True, fastmath=CONTRACT)
+def _dot_rows(X, a, Y, b):
+    """Σ_k X[a, k] Y[b, k]."""
+    s = 0.0
+    for k in range(X.shape[1]):
+        s += X[a, k] * Y[b, k]
+    return s
+
+
+@numba.njit(cache=True, fastmath=CONTRACT)
 def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
-                  dof_off, dofs, l, xE, hE, pim_off, Pi_m, q_off, x_q, w_q, u, R, stats):
+                  dof_off, dofs, phi_off, Phi, q_off, w_q, u, R, stats):
     """Add the residual (Eq. 52) of ``polygons`` to ``R`` and accumulate diagnostics.
 
     Parameters
@@ -110,6 +179,9 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
         Constants of the kernel (parameters already packed; F, G written here).
     polygons : (n,) int64
         Local polygon indices of one material region.
+    Phi, phi_off
+        Basis derivative tables of :func:`basis_derivative_tables` (nphi = 6 if
+        ``uses_gradient`` else 2 for these polygons).
     u, R : (n_local_nodes, 2)
         Local (owned + ghost) nodal displacements and residual.
     stats : (3,)
@@ -117,112 +189,95 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
     """
     out = np.zeros(13)
     w_, x_, ei, perm = _ufcx_arguments()
-    m, dm = _monomial_scratch(l)
+    nphi = 6 if uses_gradient else 2
     for e in polygons:
-        d0, d1 = dof_off[e], dof_off[e + 1]
-        nd = d1 - d0
-        ue = _gather(u, dofs, d0, nd)
-        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
-        dphi = np.empty((2, nd))
-        d2phi = np.empty((2, 2, nd))
-        Re = np.zeros((nd, 2))
-        for q in range(q_off[e], q_off[e + 1]):
-            _projected_derivatives(x_q[q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
-            J = _deformation(ue, dphi, d2phi, c, F_at, G_at)
+        d0 = dof_off[e]
+        nd = dof_off[e + 1] - d0
+        nq = q_off[e + 1] - q_off[e]
+        table = _table(Phi, phi_off, e, nd, nq * nphi)
+        grad = _gradients(_gather(u, dofs, d0, nd), table)
+        S = np.empty((2, nq * nphi))        # w [P_ij, T_ijk] per point, in the rows of Φ
+        for q in range(nq):
+            J = _set_deformation(grad, q, nphi, c, F_at, G_at)
             if not (J > stats[1]):
                 stats[1] = J
                 stats[2] = e
             out[:] = 0.0
             kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
-            w = w_q[q]
+            w = w_q[q_off[e] + q]
             stats[0] += w * out[0]
-            for a in range(nd):
-                for i in range(2):
-                    s = out[P_at + 2 * i] * dphi[0, a] + out[P_at + 2 * i + 1] * dphi[1, a]
-                    if uses_gradient:
-                        for j in range(2):
-                            for k in range(2):
-                                s += out[T_at + 4 * i + 2 * j + k] * d2phi[j, k, a]
-                    Re[a, i] += w * s
+            for i in range(2):
+                for al in range(nphi):
+                    S[i, q * nphi + al] = w * (out[P_at + 2 * i + al] if al < 2 else out[T_at + 4 * i + al - 2])
+        # R_ai += Σ_q w (P_ij ∂_jφ_a + T_ijk ∂_k∂_jφ_a)
         for a in range(nd):
-            R[dofs[d0 + a], 0] += Re[a, 0]
-            R[dofs[d0 + a], 1] += Re[a, 1]
+            R[dofs[d0 + a], 0] += _dot_rows(table, a, S, 0)
+            R[dofs[d0 + a], 1] += _dot_rows(table, a, S, 1)
 
 
 @numba.njit(cache=True)
+def _tangent_blocks(out, D_at, A_at, B_at, uses_gradient, w, q, CC):
+    """w C_im (module docstring) of point q from the tangent kernel output.
+
+    ``CC[p, q]`` (nphi, nphi) for the component pairs p = 0, 1, 2 ↔ (i, m) = (0, 0), (0, 1), (1, 1).
+    """
+    for p, (i, mm) in enumerate(((0, 0), (0, 1), (1, 1))):
+        for j in range(2):
+            for n in range(2):
+                CC[p, q, j, n] = w * out[D_at + 8 * i + 4 * j + 2 * mm + n]
+        if uses_gradient:
+            for j in range(2):
+                for k in range(2):
+                    for n in range(2):
+                        CC[p, q, 2 + 2 * j + k, n] = w * out[A_at + 16 * i + 8 * j + 4 * k + 2 * mm + n]
+                        CC[p, q, n, 2 + 2 * j + k] = w * out[A_at + 16 * mm + 8 * j + 4 * k + 2 * i + n]
+                        for r in range(2):
+                            CC[p, q, 2 + 2 * j + k, 2 + 2 * n + r] = \
+                                w * out[B_at + 32 * i + 16 * j + 8 * k + 4 * mm + 2 * n + r]
+
+
+@numba.njit(cache=True, fastmath=CONTRACT)
 def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons,
-                 dof_off, dofs, l, xE, hE, pim_off, Pi_m, q_off, x_q, w_q, u, values, coo_off):
+                 dof_off, dofs, phi_off, Phi, q_off, w_q, u, values, coo_off):
     """Write the tangent (Eq. 56) of ``polygons`` into the COO value array.
 
     The element matrix of local polygon e is stored row-major, node-major, at
-    ``values[coo_off[e]:coo_off[e] + (2 nd)²]``.
+    ``values[coo_off[e]:coo_off[e] + (2 nd)²]``. Per component pair (i, m) and with
+    W_b = Σ_q w_q C_im(x_q) Φ_b(x_q), K[(a, i), (b, m)] = Σ_(q, α) Φ[a, (q, α)] W[b, (q, α)]:
+    one dot product over all points per entry. K is a Hessian: the pair (1, 0) and the
+    entries b < a of the pairs (0, 0) and (1, 1) are mirrored, not integrated.
     """
     out = np.zeros(124)
     w_, x_, ei, perm = _ufcx_arguments()
-    m, dm = _monomial_scratch(l)
     nphi = 6 if uses_gradient else 2
-    C = np.empty((2, 2, nphi, nphi))
     for e in polygons:
-        d0, d1 = dof_off[e], dof_off[e + 1]
-        nd = d1 - d0
-        ue = _gather(u, dofs, d0, nd)
-        Pi = _polygon_block(Pi_m, pim_off, e, l[e], nd)
-        dphi = np.empty((2, nd))
-        d2phi = np.empty((2, 2, nd))
-        Phi = np.empty((nphi, nd))
-        CPhi = np.empty((nphi, nd))
-        Ke = np.zeros((nd, 2, nd, 2))
-        for q in range(q_off[e], q_off[e + 1]):
-            _projected_derivatives(x_q[q], xE[e], hE[e], l[e], Pi, m, dm, dphi, d2phi)
-            _deformation(ue, dphi, d2phi, c, F_at, G_at)
+        d0 = dof_off[e]
+        nd = dof_off[e + 1] - d0
+        nq = q_off[e + 1] - q_off[e]
+        table = _table(Phi, phi_off, e, nd, nq * nphi)
+        grad = _gradients(_gather(u, dofs, d0, nd), table)
+        CC = np.empty((3, nq, nphi, nphi))
+        for q in range(nq):
+            _set_deformation(grad, q, nphi, c, F_at, G_at)
             out[:] = 0.0
             kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
-            for a in range(nd):
-                Phi[0, a] = dphi[0, a]
-                Phi[1, a] = dphi[1, a]
-                if uses_gradient:
-                    for j in range(2):
-                        for k in range(2):
-                            Phi[2 + 2 * j + k, a] = d2phi[j, k, a]
-            # C_im blocks (see module docstring)
-            for i in range(2):
-                for mm in range(2):
-                    for j in range(2):
-                        for n in range(2):
-                            C[i, mm, j, n] = out[D_at + 8 * i + 4 * j + 2 * mm + n]
-                    if uses_gradient:
-                        for j in range(2):
-                            for k in range(2):
-                                for n in range(2):
-                                    Aijkmn = out[A_at + 16 * i + 8 * j + 4 * k + 2 * mm + n]
-                                    C[i, mm, 2 + 2 * j + k, n] = Aijkmn
-                                    C[mm, i, n, 2 + 2 * j + k] = Aijkmn
-                                    for p in range(2):
-                                        C[i, mm, 2 + 2 * j + k, 2 + 2 * n + p] = \
-                                            out[B_at + 32 * i + 16 * j + 8 * k + 4 * mm + 2 * n + p]
-            w = w_q[q]
-            # K is a Hessian: accumulate the upper half only (blocks i <= m, b >= a on the diagonal)
-            for i in range(2):
-                for mm in range(i, 2):
-                    for al in range(nphi):
-                        for b in range(nd):
-                            s = 0.0
-                            for be in range(nphi):
-                                s += C[i, mm, al, be] * Phi[be, b]
-                            CPhi[al, b] = w * s
-                    for a in range(nd):
-                        for b in range(a if mm == i else 0, nd):
-                            s = 0.0
-                            for al in range(nphi):
-                                s += Phi[al, a] * CPhi[al, b]
-                            Ke[a, i, b, mm] += s
-        for a in range(nd):
+            _tangent_blocks(out, D_at, A_at, B_at, uses_gradient, w_q[q_off[e] + q], q, CC)
+        block = values[coo_off[e]:coo_off[e] + 4 * nd * nd].reshape(nd, 2, nd, 2)
+        W = np.empty((nd, nq * nphi))
+        for p, (i, mm) in enumerate(((0, 0), (0, 1), (1, 1))):
             for b in range(nd):
-                Ke[b, 1, a, 0] = Ke[a, 0, b, 1]
-                if b > a:
-                    Ke[b, 0, a, 0] = Ke[a, 0, b, 0]
-                    Ke[b, 1, a, 1] = Ke[a, 1, b, 1]
-        values[coo_off[e]:coo_off[e] + 4 * nd * nd] = Ke.ravel()
+                for q in range(nq):
+                    k0 = q * nphi
+                    for al in range(nphi):
+                        s = 0.0
+                        for be in range(nphi):
+                            s += CC[p, q, al, be] * table[b, k0 + be]
+                        W[b, k0 + al] = s
+            for a in range(nd):
+                for b in range(a if i == mm else 0, nd):
+                    K = _dot_rows(table, a, W, b)
+                    block[a, i, b, mm] = K
+                    block[b, mm, a, i] = K
 
 
 @numba.njit(cache=True)

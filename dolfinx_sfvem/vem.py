@@ -16,7 +16,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat, post
-from .assemble import coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop, zero_constrained_rows
+from .assemble import (basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop,
+                       zero_constrained_rows)
 from .energy import Energy
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
@@ -106,9 +107,14 @@ class SFVEMDiscretization:
                                 np.flatnonzero(space.tags == tag).astype(np.int64))
                         for tag, energy in sorted(materials.items())]
         proj = space.projections
-        self._geometry = (space.dof_offsets, space.dofs, proj.l, proj.centroid, proj.diameter,
-                          proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, space.w_q)
         nd = np.diff(space.dof_offsets)
+        nphi = np.full(nd.size, 2, dtype=np.int64)       # rows of Φ: ∇φ, and ∇∇φ where Ψ uses G
+        for reg in self.regions:
+            nphi[reg.polygons] = 6 if reg.kernels.uses_gradient else 2
+        phi_off = np.concatenate([[0], np.cumsum(nphi * nd * np.diff(space.q_offsets))]).astype(np.int64)
+        Phi = basis_derivative_tables(space.dof_offsets, proj.l, proj.centroid, proj.diameter,
+                                      proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, nphi, phi_off)
+        self._geometry = (space.dof_offsets, space.dofs, phi_off, Phi, space.q_offsets, space.w_q)
         self._coo_off = np.concatenate([[0], np.cumsum(4 * nd * nd)]).astype(np.int64)
         self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
         self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)
