@@ -237,6 +237,24 @@ def _tangent_blocks(out, D_at, A_at, B_at, uses_gradient, w, q, CC):
 
 
 @numba.njit(cache=True, fastmath=CONTRACT)
+def _apply_C(CC, p, table, W, nphi):
+    """W[b, (q, α)] = Σ_β CC[p, q, α, β] Φ[b, (q, β)] for all nodes b and points q.
+
+    ``nphi`` must be a literal (2 or 6): one compiled, fully unrolled version each.
+    """
+    numba.literally(nphi)
+    nd = table.shape[0]
+    for q in range(CC.shape[1]):
+        k0 = q * nphi
+        for b in range(nd):
+            for al in range(nphi):
+                s = 0.0
+                for be in range(nphi):
+                    s += CC[p, q, al, be] * table[b, k0 + be]
+                W[b, k0 + al] = s
+
+
+@numba.njit(cache=True, fastmath=CONTRACT)
 def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons,
                  dof_off, dofs, phi_off, Phi, q_off, w_q, u, values, coo_off):
     """Write the tangent (Eq. 56) of ``polygons`` into the COO value array.
@@ -265,14 +283,10 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
         block = values[coo_off[e]:coo_off[e] + 4 * nd * nd].reshape(nd, 2, nd, 2)
         W = np.empty((nd, nq * nphi))
         for p, (i, mm) in enumerate(((0, 0), (0, 1), (1, 1))):
-            for b in range(nd):
-                for q in range(nq):
-                    k0 = q * nphi
-                    for al in range(nphi):
-                        s = 0.0
-                        for be in range(nphi):
-                            s += CC[p, q, al, be] * table[b, k0 + be]
-                        W[b, k0 + al] = s
+            if nphi == 6:                   # literal sizes: unrolled C Φ products
+                _apply_C(CC, p, table, W, 6)
+            else:
+                _apply_C(CC, p, table, W, 2)
             for a in range(nd):
                 for b in range(a if i == mm else 0, nd):
                     K = _dot_rows(table, a, W, b)

@@ -1,8 +1,17 @@
-"""Quadrature over polygons: Gauss rules on each polygon's sub-triangles.
+"""Quadrature over polygons, exact for a given polynomial degree.
 
 The energy integrals of the SFVEM (paper Eqs. 46, 52, 56) are not polynomial, so they
-are integrated numerically on the quadrature sub-triangulation of every polygon
-(DESIGN §4.4: exact for degree at least 2l, where l is the polygon's projection order).
+are integrated numerically on every polygon with a rule exact for degree 2l, where l is
+the polygon's projection order (DESIGN §4.4). Every point costs one evaluation of the
+pointwise energy kernels per assembly, so the rules are made small:
+
+- the reference: Gauss rules on each polygon's sub-triangles (:func:`polygon_quadrature`);
+- parallelograms (any number of collinear hanging nodes on their sides) get the
+  tensor Gauss–Legendre rule of the parallelogram, (d//2 + 1)² points;
+- every other polygon gets the sub-triangle rule compressed to at most dim P_d points by
+  non-negative least squares on the moments (Carathéodory–Tchakaloff compression): a
+  subset of the sub-triangle points with new positive weights, exact for the same degree
+  (:func:`compressed_polygon_quadrature`).
 """
 from __future__ import annotations
 
@@ -12,6 +21,7 @@ import basix
 import numba
 import numpy as np
 import numpy.typing as npt
+import scipy.optimize
 
 
 @functools.lru_cache(maxsize=None)
@@ -93,3 +103,102 @@ def polygon_quadrature(nodes: npt.NDArray[np.float64], triangles: npt.NDArray[np
                np.asarray(triangle_offsets, dtype=np.int64), polygons, degrees, rule_points, rule_weights,
                rule_offsets, q_offsets, x_q, w_q)
     return q_offsets, x_q, w_q
+
+
+#: relative moment error up to which a compressed rule is accepted (else the full rule is kept)
+MOMENT_TOLERANCE = 1e-11
+
+
+@numba.njit(cache=True)
+def scaled_monomials(x, centre, scale, degree):
+    """All ((x - centre)/scale)^(p, q) with p + q <= degree at the points x (n, 2): (n_monomials, n),
+    ordered by degree, then by the power of the second coordinate."""
+    n = x.shape[0]
+    V = np.empty(((degree + 1) * (degree + 2) // 2, n))
+    for k in range(n):
+        xi, eta = (x[k, 0] - centre[0]) / scale, (x[k, 1] - centre[1]) / scale
+        row = 0
+        for d in range(degree + 1):
+            for q in range(d + 1):
+                V[row, k] = xi ** (d - q) * eta ** q
+                row += 1
+    return V
+
+
+def parallelogram_corners(xy: npt.NDArray[np.float64], tol: float = 1e-10) -> npt.NDArray[np.float64] | None:
+    """The corners (4, 2), counter-clockwise, if the polygon ``xy`` (N, 2) is a parallelogram
+    with any number of collinear vertices on its sides; else None."""
+    e_in = xy - np.roll(xy, 1, axis=0)
+    e_out = np.roll(xy, -1, axis=0) - xy
+    turn = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
+    corners = xy[np.abs(turn) > tol * np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)]
+    if corners.shape[0] != 4:
+        return None
+    size = np.ptp(xy, axis=0).max()
+    return corners if np.allclose(corners[0] + corners[2], corners[1] + corners[3], atol=tol * size) else None
+
+
+def parallelogram_rule(corners: npt.NDArray[np.float64], degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Tensor Gauss–Legendre rule of a parallelogram, exact for ``degree``: points (n, 2), weights (n,).
+
+    x(s, t) = c0 + s (c1 - c0) + t (c3 - c0) is affine, so degree-d exactness on [0, 1]²
+    per direction (d//2 + 1 points) is exactness for total degree d on the parallelogram.
+    """
+    s, w = np.polynomial.legendre.leggauss(degree // 2 + 1)
+    s, w = (s + 1) / 2, w / 2
+    e1, e2 = corners[1] - corners[0], corners[3] - corners[0]
+    S, T = np.meshgrid(s, s, indexing="ij")
+    points = corners[0] + S.reshape(-1, 1) * e1 + T.reshape(-1, 1) * e2
+    return points, np.outer(w, w).ravel() * abs(e1[0] * e2[1] - e1[1] * e2[0])
+
+
+def compress_rule(points: npt.NDArray[np.float64], weights: npt.NDArray[np.float64],
+                  degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """A subset of ``points`` with non-negative weights and the same moments up to ``degree``.
+
+    Non-negative least squares on the moment equations gives a basic solution with at most
+    dim P_degree = (d + 1)(d + 2)/2 points. The input rule is returned when the result
+    misses a moment by more than :data:`MOMENT_TOLERANCE` (relative) or is not smaller.
+    """
+    centre = weights @ points / weights.sum()
+    scale = np.ptp(points, axis=0).max()
+    V = scaled_monomials(points, centre, scale, degree)
+    moments = V @ weights
+    w, _ = scipy.optimize.nnls(V, moments)
+    keep = w > 0.0
+    error = np.abs(V[:, keep] @ w[keep] - moments).max() / weights.sum()
+    if error > MOMENT_TOLERANCE or keep.sum() >= weights.size:
+        return points, weights
+    return points[keep], w[keep]
+
+
+def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64],
+                                  vertices: npt.NDArray[np.int64], nodes: npt.NDArray[np.float64],
+                                  triangles: npt.NDArray[np.int64], triangle_offsets: npt.NDArray[np.int64],
+                                  polygons: npt.NDArray[np.int64], degrees: npt.NDArray[np.integer]):
+    """Small positive rules on the given polygons, exact for ``degrees`` (module docstring).
+
+    Parameters
+    ----------
+    points, offsets, vertices
+        The polygon mesh: polygon e has the vertices ``points[vertices[offsets[e]:offsets[e + 1]]]``.
+    nodes, triangles, triangle_offsets, polygons, degrees
+        As for :func:`polygon_quadrature`, whose rule is compressed.
+
+    Returns
+    -------
+    q_offsets, x_q, w_q
+        As for :func:`polygon_quadrature`. Every weight is positive and every point lies in
+        its polygon (closed).
+    """
+    polygons = np.asarray(polygons, dtype=np.int64)
+    degrees = np.asarray(degrees, dtype=np.int64)
+    q_offsets, x_q, w_q = polygon_quadrature(nodes, triangles, triangle_offsets, polygons, degrees)
+    rules = []
+    for k, (e, d) in enumerate(zip(polygons, degrees)):
+        corners = parallelogram_corners(points[vertices[offsets[e]:offsets[e + 1]]])
+        q = slice(q_offsets[k], q_offsets[k + 1])
+        rules.append(parallelogram_rule(corners, d) if corners is not None else compress_rule(x_q[q], w_q[q], d))
+    counts = [w.size for _, w in rules]
+    return (np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            np.vstack([x for x, _ in rules]), np.concatenate([w for _, w in rules]))

@@ -31,7 +31,10 @@ from . import _compat
 from .mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .projection import Projections, build_projections
-from .quadrature import polygon_quadrature
+from .quadrature import compressed_polygon_quadrature, polygon_quadrature
+
+#: energy quadratures of :class:`VEMSpace`
+QUADRATURES = ("compressed", "subtriangles")
 
 #: kinds of SFVEM nodes
 VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
@@ -102,7 +105,12 @@ class VEMSpace:
     l_min
         Smallest automatic l (3, as in the paper).
     quadrature_degree
-        Degree of the sub-triangle rule for the energy integrals; default ``2 l`` per polygon.
+        Degree integrated exactly by the energy quadrature; default ``2 l`` per polygon.
+    quadrature
+        ``"compressed"`` (default): the smallest rules of :mod:`dolfinx_sfvem.quadrature`
+        (tensor Gauss on parallelograms, compressed sub-triangle rules elsewhere);
+        ``"subtriangles"``: Gauss rules on every sub-triangle (the reference, about 1.7×
+        the points).
     verbose
         Print the distribution of l on rank 0.
 
@@ -138,7 +146,9 @@ class VEMSpace:
 
     def __init__(self, mesh: PolygonMesh, comm: MPI.Comm = MPI.COMM_WORLD, *,
                  l: int | npt.ArrayLike | None = None, l_min: int = 3,
-                 quadrature_degree: int | None = None, verbose: bool = True):
+                 quadrature_degree: int | None = None, quadrature: str = "compressed", verbose: bool = True):
+        if quadrature not in QUADRATURES:
+            raise ValueError(f"unknown quadrature {quadrature!r}; use one of {QUADRATURES}")
         self.polygon_mesh = mesh
         self.comm = comm
         self.mesh, cell_polygon = mesh.to_dolfinx(comm)
@@ -155,8 +165,10 @@ class VEMSpace:
                                                           polygons=self.polygons, l=l_local, l_min=l_min)
         degrees = (2 * self.projections.l if quadrature_degree is None
                    else np.full(self.polygons.size, quadrature_degree))
-        self.q_offsets, self.x_q, self.w_q = polygon_quadrature(
-            mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
+        triangles = (mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
+        self.q_offsets, self.x_q, self.w_q = (
+            polygon_quadrature(*triangles) if quadrature == "subtriangles"
+            else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles))
         self._to_p2 = None
         if verbose:
             text = self.summary()

@@ -91,18 +91,19 @@ class SFVEMDiscretization:
         Region tag -> energy.
     comm
         Communicator.
-    l, l_min, quadrature_degree
+    l, l_min, quadrature_degree, quadrature
         Passed to :class:`VEMSpace`.
     """
 
     method = "vem"
 
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
-                 *, l=None, l_min: int = 3, quadrature_degree: int | None = None, verbose: bool = True):
+                 *, l=None, l_min: int = 3, quadrature_degree: int | None = None, quadrature: str = "compressed",
+                 verbose: bool = True):
         check_materials(mesh.tags, materials)
         self.comm = comm
         self.space = space = VEMSpace(mesh, comm, l=l, l_min=l_min, quadrature_degree=quadrature_degree,
-                                      verbose=verbose)
+                                      quadrature=quadrature, verbose=verbose)
         self.regions = [_Region(tag, energy, compile_kernels(energy, comm),
                                 np.flatnonzero(space.tags == tag).astype(np.int64))
                         for tag, energy in sorted(materials.items())]
