@@ -265,7 +265,7 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
     one dot product over all points per entry. K is a Hessian: the pair (1, 0) and the
     entries b < a of the pairs (0, 0) and (1, 1) are mirrored, not integrated.
     """
-    out = np.zeros(124)
+    out = np.zeros(112)
     w_, x_, ei, perm = _ufcx_arguments()
     nphi = 6 if uses_gradient else 2
     for e in polygons:
