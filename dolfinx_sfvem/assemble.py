@@ -316,14 +316,6 @@ def coo_pattern(dof_off, dofs, global_node, coo_off):
 
 
 @numba.njit(cache=True)
-def zero_constrained_rows(values, rows_local, constrained, coo_off_end):
-    """Zero the COO entries whose (local) row is a constrained unknown."""
-    for p in range(coo_off_end):
-        if constrained[rows_local[p]]:
-            values[p] = 0.0
-
-
-@numba.njit(cache=True)
 def projected_fields(polygons, dof_off, dofs, l, xE, hE, pim_off, Pi_m, pin_off, Pi_nabla, q_off, x_q, u,
                      u_q, grad_q):
     """Π^∇_2 u (Eq. 36) and Π⁰_l ∇u (Eq. 43) at the quadrature points of ``polygons``.

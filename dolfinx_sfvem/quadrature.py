@@ -6,8 +6,8 @@ the polygon's projection order (DESIGN §4.4). Every point costs one evaluation 
 pointwise energy kernels per assembly, so the rules are made small:
 
 - the reference: Gauss rules on each polygon's sub-triangles (:func:`polygon_quadrature`);
-- parallelograms (any number of collinear hanging nodes on their sides) get the
-  tensor Gauss–Legendre rule of the parallelogram, (d//2 + 1)² points;
+- parallelograms (any number of collinear hanging nodes on their sides) get a rule of
+  the square mapped affinely: Stroud's 12 points up to degree 7, tensor Gauss beyond;
 - every other polygon gets the sub-triangle rule compressed to at most dim P_d points by
   non-negative least squares on the moments (Carathéodory–Tchakaloff compression): a
   subset of the sub-triangle points with new positive weights, exact for the same degree
@@ -138,18 +138,35 @@ def parallelogram_corners(xy: npt.NDArray[np.float64], tol: float = 1e-10) -> np
     return corners if np.allclose(corners[0] + corners[2], corners[1] + corners[3], atol=tol * size) else None
 
 
-def parallelogram_rule(corners: npt.NDArray[np.float64], degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """Tensor Gauss–Legendre rule of a parallelogram, exact for ``degree``: points (n, 2), weights (n,).
+@functools.lru_cache(maxsize=None)
+def unit_square_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """A positive rule on [0, 1]² exact for ``degree``: points (n, 2), weights (n,) summing to 1.
 
-    x(s, t) = c0 + s (c1 - c0) + t (c3 - c0) is affine, so degree-d exactness on [0, 1]²
-    per direction (d//2 + 1 points) is exactness for total degree d on the parallelogram.
+    Degree <= 7: Stroud's 12-point rule C2: 7-1 (A. H. Stroud, *Approximate Calculation of
+    Multiple Integrals*, 1971), all points inside. Higher degrees: tensor Gauss–Legendre,
+    (degree//2 + 1)² points.
     """
-    s, w = np.polynomial.legendre.leggauss(degree // 2 + 1)
-    s, w = (s + 1) / 2, w / 2
+    if degree <= 7:
+        q = np.sqrt(583.0)
+        r, s, t = np.sqrt(6 / 7), np.sqrt((114 - 3 * q) / 287), np.sqrt((114 + 3 * q) / 287)
+        signs = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
+        xi = np.array([(r, 0), (-r, 0), (0, r), (0, -r)] + [(a * s, b * s) for a, b in signs]
+                      + [(a * t, b * t) for a, b in signs])
+        w = np.repeat([49 / 810, (178981 + 2769 * q) / 1888920, (178981 - 2769 * q) / 1888920], 4)
+        return (xi + 1) / 2, w
+    g, wg = np.polynomial.legendre.leggauss(degree // 2 + 1)
+    S, T = np.meshgrid((g + 1) / 2, (g + 1) / 2, indexing="ij")
+    return np.column_stack([S.ravel(), T.ravel()]), np.outer(wg / 2, wg / 2).ravel()
+
+
+def parallelogram_rule(corners: npt.NDArray[np.float64], degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`unit_square_rule` mapped to a parallelogram: points (n, 2), weights (n,).
+
+    x(s, t) = c0 + s (c1 - c0) + t (c3 - c0) is affine, so the rule stays exact for ``degree``.
+    """
+    st, w = unit_square_rule(int(degree))
     e1, e2 = corners[1] - corners[0], corners[3] - corners[0]
-    S, T = np.meshgrid(s, s, indexing="ij")
-    points = corners[0] + S.reshape(-1, 1) * e1 + T.reshape(-1, 1) * e2
-    return points, np.outer(w, w).ravel() * abs(e1[0] * e2[1] - e1[1] * e2[0])
+    return corners[0] + st[:, :1] * e1 + st[:, 1:] * e2, w * abs(e1[0] * e2[1] - e1[1] * e2[0])
 
 
 def compress_rule(points: npt.NDArray[np.float64], weights: npt.NDArray[np.float64],

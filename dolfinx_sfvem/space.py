@@ -108,7 +108,7 @@ class VEMSpace:
         Degree integrated exactly by the energy quadrature; default ``2 l`` per polygon.
     quadrature
         ``"compressed"`` (default): the smallest rules of :mod:`dolfinx_sfvem.quadrature`
-        (tensor Gauss on parallelograms, compressed sub-triangle rules elsewhere);
+        (square rules on parallelograms, compressed sub-triangle rules elsewhere);
         ``"subtriangles"``: Gauss rules on every sub-triangle (the reference, about 1.7×
         the points).
     verbose

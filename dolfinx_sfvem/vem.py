@@ -16,8 +16,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat, post
-from .assemble import (basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop,
-                       zero_constrained_rows)
+from .assemble import basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop
 from .energy import Energy
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
@@ -190,10 +189,18 @@ class SFVEMDiscretization:
                 tangent_loop(k.tangent, c, k.F_offset, k.G_offset, D_at, A_at, B_at, k.uses_gradient,
                              reg.polygons, *self._geometry, u, values, self._coo_off)
         n_blocks = self._coo_off[-1]
-        zero_constrained_rows(values, self._local_rows, constrained, n_blocks)
+        values[self._constrained_entries(constrained)] = 0.0
         values[n_blocks:] = constrained[:2 * self.space.n_owned_nodes]
         _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
         A.assemble()
+
+    def _constrained_entries(self, constrained: np.ndarray) -> np.ndarray:
+        """Positions of the COO block entries in constrained rows (cached per constrained set)."""
+        key = constrained.tobytes()
+        if getattr(self, "_constrained_key", None) != key:
+            self._constrained_key = key
+            self._constrained_at = np.flatnonzero(constrained[self._local_rows])
+        return self._constrained_at
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:

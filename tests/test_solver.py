@@ -98,13 +98,17 @@ def test_order_estimate_tells_quadratic_from_linear(update, order):
 def test_newton_converges_quadratically_in_contact():
     """In every load step of the contact phase (medium squeezed below 5 % of its area: the beam
     tip lies on the lower beam), pure Newton with the tangent of Eq. 56 converges with order
-    ≈ 2 until round-off. The converged steps also reach the full load."""
+    ≈ 2 until round-off. The converged steps also reach the full load.
+
+    Bound 1.6: the three-residual estimate is biased low by the constant of
+    r_{k+1} = C r_k² (C ~ 1e4 in these steps: 1.2e-6 -> 6.6e-9 -> 8.9e-13 reads as 1.72);
+    an inconsistent tangent reads as ≈ 1 (control test above)."""
     result = cbox_problem(uy=-0.5).solve(8, petsc_options=PURE_NEWTON)
     assert result.converged, result.message
     contact = [s for s in converged(result.steps) if s["min_J"] < 0.05]
     assert len(contact) >= 3, [(s["load"], s["min_J"]) for s in converged(result.steps)]
     orders = {s["load"]: order_estimate(s["residual_norms"]) for s in contact}
-    assert min(orders.values()) > 1.75, orders
+    assert min(orders.values()) > 1.6, orders
 
 
 # ----------------------------------------------------------------------------- cut-back
