@@ -71,8 +71,9 @@ def patch_setup_stages(timer: instrument.StageTimer, method: str) -> None:
     if method == "vem":
         timer.patch(sf.PolygonMesh, "to_dolfinx", "dolfinx_mesh")
         timer.patch(dolfinx_sfvem.space, "build_projections", "projections")
-        timer.patch(dolfinx_sfvem.space, "polygon_quadrature", "quadrature")
+        timer.patch(dolfinx_sfvem.space, "compressed_polygon_quadrature", "quadrature")
         timer.patch(dolfinx_sfvem.vem, "compile_kernels", "kernels")
+        timer.patch(dolfinx_sfvem.vem, "basis_derivative_tables", "basis_tables")
     else:
         timer.patch(dolfinx_sfvem.fem, "matched_triangulation", "remesh")
         timer.patch(dolfinx_sfvem._compat, "create_triangle_mesh_partitioned", "dolfinx_mesh")

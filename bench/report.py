@@ -30,7 +30,8 @@ All times are wall times unless marked CPU.
   rest (SNES, vector operations, matrix creation, reactions, Python), each divided by the
   Newton iterations of the load path (failed attempts included);
 - set-up: mesh generation + discretization (space, projections and choice of l,
-  quadrature, kernel/form compilation, gmsh remeshing for the FEM) + matrix pattern;
+  quadrature (compression), basis derivative tables, kernel/form compilation, gmsh
+  remeshing for the FEM) + matrix pattern;
 - start-up: imports + set-up + first residual + first tangent, in a fresh process;
   "cold" with empty numba and FFCx caches, "warm" a second start with the caches the cold
   start filled;
