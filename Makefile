@@ -41,5 +41,10 @@ test-mpi: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/run.py --out $(OUT)/bench
 
+# the paper's examples with SFVEM and FEM on $(NP) and 1 ranks, then docs/results.md (hours;
+# restartable). RESULTS_OPTS=--quick checks the pipeline in minutes (out/results-quick).
+results: $(STAMP)
+	$(PY) demos/results.py --np $(NP) --out $(OUT) $(RESULTS_OPTS)
+
 clean:
 	rm -rf $(OUT) .pytest_cache
