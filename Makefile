@@ -12,7 +12,7 @@ MPIRUN := mpirun -n $(NP) $(if $(filter 0,$(shell id -u)),--allow-run-as-root) -
 OUT ?= out
 export OMP_NUM_THREADS := 1
 
-.PHONY: install demo test test-serial test-mpi bench results clean
+.PHONY: install demo test test-serial test-mpi bench results meshes clean
 
 install: $(STAMP)
 
@@ -45,6 +45,10 @@ bench: $(STAMP)
 # restartable). RESULTS_OPTS=--quick checks the pipeline in minutes (out/results-quick).
 results: $(STAMP)
 	$(PY) demos/results.py --np $(NP) --out $(OUT) $(RESULTS_OPTS)
+
+# the demo meshes at their default sizes, with summary.md (meshes/README.md)
+meshes: $(STAMP)
+	$(PY) meshes/generate.py
 
 clean:
 	rm -rf $(OUT) .pytest_cache

@@ -545,12 +545,13 @@ def from_gmsh(source: str | os.PathLike | None = None,
 _Builder = Callable[[object, float], Mapping[int, Sequence[int]]]
 
 
-def _dual_of_gmsh(build: _Builder, h: float) -> PolygonSet:
+def _dual_of_gmsh(build: _Builder, h: float, keep_gmsh: str | os.PathLike | None = None) -> PolygonSet:
     """Dual polygons (:func:`dual_polygons`) of a gmsh triangle mesh of size ``h``.
 
     ``build(gmsh, h)`` creates the geometry in a fresh gmsh model (synchronised) and
     returns ``{region tag: surface tags}``; the triangles are Frontal-Delaunay
-    (``Mesh.Algorithm`` 6) with ``Mesh.MeshSizeMax = h``.
+    (``Mesh.Algorithm`` 6) with ``Mesh.MeshSizeMax = h``. With ``keep_gmsh``, the model is
+    also written to ``<keep_gmsh>.geo`` and ``<keep_gmsh>.msh`` (:func:`write_gmsh`).
     """
     with gmsh_session() as gmsh:
         gmsh.option.setNumber("Mesh.Algorithm", 6)
@@ -558,8 +559,26 @@ def _dual_of_gmsh(build: _Builder, h: float) -> PolygonSet:
         for tag, surfaces in build(gmsh, h).items():
             gmsh.model.addPhysicalGroup(2, list(surfaces), tag)
         gmsh.model.mesh.generate(2)
+        if keep_gmsh is not None:
+            write_gmsh(gmsh, keep_gmsh)
         points, _, flat, tags = model_cells(gmsh, None)
     return dual_polygons(points, flat.reshape(-1, 3), tags)
+
+
+def write_gmsh(gmsh, stem: str | os.PathLike) -> None:
+    """Write the current gmsh model: ``<stem>.geo``, the geometry with the mesh options
+    ``Mesh.Algorithm`` and ``Mesh.MeshSizeMax`` in force (``gmsh <stem>.geo -2`` meshes it
+    again), and ``<stem>.msh``, its mesh (2D physical groups numbered by region tag)."""
+    stem = os.fspath(stem)
+    gmsh.write(stem + ".msh")
+    gmsh.write(stem + ".geo_unrolled")
+    with open(stem + ".geo_unrolled") as f:
+        geometry = f.read()
+    os.remove(stem + ".geo_unrolled")
+    options = "".join(f"{name} = {gmsh.option.getNumber(name)!r};\n" for name in ("Mesh.Algorithm", "Mesh.MeshSizeMax"))
+    with open(stem + ".geo", "w") as f:
+        f.write(f"// written by dolfinx_sfvem.meshes.write_gmsh; `gmsh {os.path.basename(stem)}.geo -2` meshes it\n"
+                + options + geometry)
 
 
 def _straight_region(loops: Sequence[npt.ArrayLike], tag: int) -> _Builder:
@@ -651,13 +670,14 @@ class Benchmark:
 
 
 def _solid_with_quad_medium(solid_loops: Sequence[npt.ArrayLike], h: float, xs: np.ndarray,
-                            ys: np.ndarray,
-                            medium: Callable[[np.ndarray, np.ndarray], np.ndarray] | None) -> PolygonMesh:
+                            ys: np.ndarray, medium: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
+                            keep_gmsh: str | os.PathLike | None = None) -> PolygonMesh:
     """Dual polygons of the solid glued to a quadrilateral medium grid (hanging nodes)."""
-    return glue(_dual_of_gmsh(_straight_region(solid_loops, SOLID), h), _quad_grid(xs, ys, MEDIUM, medium))
+    return glue(_dual_of_gmsh(_straight_region(solid_loops, SOLID), h, keep_gmsh),
+                _quad_grid(xs, ys, MEDIUM, medium))
 
 
-def cbox(h_solid: float = 0.05, medium_refinement: int = 1) -> Benchmark:
+def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
     """C-box of paper §5.2 (Bluhm et al. 2021) with a quadrilateral third medium.
 
     Geometry (L = 1, wall thickness t = 0.1, height 0.5, initial gap 0.3): solid = left
@@ -677,6 +697,8 @@ def cbox(h_solid: float = 0.05, medium_refinement: int = 1) -> Benchmark:
     Named points: ``load`` (1, 0.5), the top-right corner where u_y is prescribed;
     ``gap_top`` (1, 0.4) and ``gap_bottom`` (1, 0.1), the inner corners at the beam tips.
     Named segments: ``fixed``, the left side x = 0.
+
+    ``keep_gmsh``: write the solid's gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
     if int(medium_refinement) != medium_refinement or medium_refinement < 1:
         raise ValueError(f"medium_refinement must be a positive integer, got {medium_refinement!r}")
@@ -688,13 +710,13 @@ def cbox(h_solid: float = 0.05, medium_refinement: int = 1) -> Benchmark:
     def medium(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
         return (cx > L) | ((cy > t) & (cy < H - t))
 
-    mesh = _solid_with_quad_medium([outline], h_solid, xs, ys, medium)
+    mesh = _solid_with_quad_medium([outline], h_solid, xs, ys, medium, keep_gmsh)
     return Benchmark(mesh, {"solid": SOLID, "medium": MEDIUM},
                      {"load": (L, H), "gap_top": (L, H - t), "gap_bottom": (L, t)},
                      {"fixed": ((0.0, 0.0), (0.0, H))})
 
 
-def box(mesh: int = 1, h_solid: float = 0.05) -> Benchmark:
+def box(mesh: int = 1, h_solid: float = 0.05, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
     """Box self-contact of paper §5.1: three medium densities, one solid mesh.
 
     Geometry: box [0, 2] x [0, 0.5] with walls of thickness 0.1; the cavity
@@ -711,6 +733,8 @@ def box(mesh: int = 1, h_solid: float = 0.05) -> Benchmark:
     lower-right corner (u_y = 0); ``load`` (1, 0.5) middle of the top; ``gap_top``
     (1, 0.4) and ``gap_bottom`` (1, 0.1), the inner surfaces at mid-span where the gap is
     measured. No named segments.
+
+    ``keep_gmsh``: write the solid's gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
     if mesh not in (1, 2, 3):
         raise ValueError(f"box mesh must be 1, 2 or 3, got {mesh!r}")
@@ -719,7 +743,7 @@ def box(mesh: int = 1, h_solid: float = 0.05) -> Benchmark:
     cavity = [(t, t), (L / 2, t), (L - t, t), (L - t, H - t), (L / 2, H - t), (t, H - t)]
     xs = _axis_nodes([t, L / 2, L - t], h_solid, mesh)
     ys = _axis_nodes([t, H - t], h_solid, mesh)
-    polygon_mesh = _solid_with_quad_medium([outer, cavity], h_solid, xs, ys, None)
+    polygon_mesh = _solid_with_quad_medium([outer, cavity], h_solid, xs, ys, None, keep_gmsh)
     return Benchmark(polygon_mesh, {"solid": SOLID, "medium": MEDIUM},
                      {"fixed": (0.0, 0.0), "roller": (L, 0.0), "load": (L / 2, H),
                       "gap_top": (L / 2, H - t), "gap_bottom": (L / 2, t)}, {})
@@ -752,7 +776,7 @@ def _occ_regions(gmsh, solids: Sequence[tuple[int, int]], medium_box: int) -> di
     return regions
 
 
-def punch(h: float = 0.05, gap: float = 1.0) -> Benchmark:
+def punch(h: float = 0.05, gap: float = 1.0, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
     """Punch problem of paper §5.3, half model, polygonal (dual) meshes everywhere.
 
     Geometry (the paper's figure is missing; choices made here): symmetry axis x = 0;
@@ -769,6 +793,8 @@ def punch(h: float = 0.05, gap: float = 1.0) -> Benchmark:
     Named segments: ``fixed`` the block bottom y = 0; ``symmetry`` the axis x = 0 (u_x = 0);
     ``load`` the punch top where u_y is prescribed. Named points: ``punch_tip``
     (0, 1 + gap), ``block_top`` (0, 1).
+
+    ``keep_gmsh``: write the gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
     L, H, R = 2.0, 1.0, 1.0
     top = H + gap + R
@@ -778,13 +804,13 @@ def punch(h: float = 0.05, gap: float = 1.0) -> Benchmark:
         tool = _occ_sector(gmsh, (0.0, top), R, [0.0, -90.0])
         return _occ_regions(gmsh, [(SOLID, block), (3, tool)], gmsh.model.occ.addRectangle(0.0, H, 0.0, L, gap + R))
 
-    return Benchmark(_dual_of_gmsh(build, h).to_mesh(), {"block": SOLID, "medium": MEDIUM, "punch": 3},
+    return Benchmark(_dual_of_gmsh(build, h, keep_gmsh).to_mesh(), {"block": SOLID, "medium": MEDIUM, "punch": 3},
                      {"punch_tip": (0.0, H + gap), "block_top": (0.0, H)},
                      {"fixed": ((0.0, 0.0), (L, 0.0)), "symmetry": ((0.0, 0.0), (0.0, top)),
                       "load": ((0.0, top), (R, top))})
 
 
-def multi_object(h: float = 0.04, gap: float = 0.1) -> Benchmark:
+def multi_object(h: float = 0.04, gap: float = 0.1, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
     """Contact of multiple objects, paper §5.4, polygonal (dual) meshes everywhere.
 
     Geometry (the paper's figure is missing; choices made here): block [0, 8] x [0, 0.2]
@@ -798,6 +824,8 @@ def multi_object(h: float = 0.04, gap: float = 0.1) -> Benchmark:
     Named segments: ``left_end`` x = 0 and ``right_end`` x = 8 of the block (clamped or
     simply supported); ``disc_top_i`` (i = 1..7) the flat top of disc i where u_y is
     prescribed. Named points: ``disc_tip_i``, the lowest point of disc i.
+
+    ``keep_gmsh``: write the gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
     L, T, R, n = 8.0, 0.2, 0.2, 7
     top = T + gap + R
@@ -808,7 +836,7 @@ def multi_object(h: float = 0.04, gap: float = 0.1) -> Benchmark:
         discs = [(3, _occ_sector(gmsh, (x, top), R, [0.0, -90.0, -180.0])) for x in centres]
         return _occ_regions(gmsh, [(SOLID, block)] + discs, gmsh.model.occ.addRectangle(0.0, T, 0.0, L, gap + R))
 
-    return Benchmark(_dual_of_gmsh(build, h).to_mesh(), {"block": SOLID, "medium": MEDIUM, "discs": 3},
+    return Benchmark(_dual_of_gmsh(build, h, keep_gmsh).to_mesh(), {"block": SOLID, "medium": MEDIUM, "discs": 3},
                      {f"disc_tip_{i + 1}": (x, T + gap) for i, x in enumerate(centres)},
                      {"left_end": ((0.0, 0.0), (0.0, T)), "right_end": ((L, 0.0), (L, T)),
                       **{f"disc_top_{i + 1}": ((x - R, top), (x + R, top)) for i, x in enumerate(centres)}})
