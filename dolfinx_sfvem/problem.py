@@ -30,6 +30,8 @@ from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 CHECKPOINT = "checkpoint.npz"
+#: first bytes of every HDF5 file (its superblock signature)
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
@@ -385,13 +387,17 @@ class _StopRequest:
         return False
 
 
+def _first_bytes(path: pathlib.Path, n: int) -> bytes:
+    with open(path, "rb") as f:
+        return f.read(n)
+
+
 class _RunWriter:
     """Writes the outputs of a run as it goes (every converged step)."""
 
     def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
                  append: bool = False):
         import dolfinx.fem
-        import dolfinx.io
         self.problem = problem
         self.stepper = stepper
         self.out = pathlib.Path(out)
@@ -401,16 +407,40 @@ class _RunWriter:
         mesh = problem.disc.dolfinx_mesh
         self.u_p2 = None
         self.u_p1 = dolfinx.fem.Function(dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", 1)), name="u")
-        xdmf_path = self.out / "displacement.xdmf"
-        self.xdmf = dolfinx.io.XDMFFile(problem.comm, str(xdmf_path), "a" if append and xdmf_path.exists() else "w")
-        if not (append and xdmf_path.exists()):
-            self.xdmf.write_mesh(mesh)
+        self.xdmf_path = self.out / "displacement.xdmf"
+        self.xdmf_started = append and self._readable_xdmf()
+
+    def _readable_xdmf(self) -> bool:
+        """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed
+        run left behind (HDF5 superblock missing) is renamed ``*.broken`` and a new series begins."""
+        comm = self.problem.comm
+        h5 = self.xdmf_path.with_suffix(".h5")
+        ok = None
+        if comm.rank == 0:
+            ok = self.xdmf_path.exists() and h5.exists() and _first_bytes(h5, 8) == HDF5_SIGNATURE
+            if not ok:
+                for path in (self.xdmf_path, h5):
+                    if path.exists():
+                        path.replace(path.with_name(path.name + ".broken"))
+                        print(f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
+                              "the displacement series starts again", flush=True)
+        return comm.bcast(ok, root=0)
+
+    def _write_xdmf(self, load: float) -> None:
+        """Append one time step; the file is opened and closed around it, so a run killed
+        between steps leaves a readable series."""
+        import dolfinx.io
+        with dolfinx.io.XDMFFile(self.problem.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
+            if not self.xdmf_started:
+                f.write_mesh(self.problem.disc.dolfinx_mesh)
+            f.write_function(self.u_p1, load)
+        self.xdmf_started = True
 
     def step(self, records: list[dict]) -> None:
         p = self.problem
         self.u_p2 = p.disc.output_function(p.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
-        self.xdmf.write_function(self.u_p1, records[-1]["load"])
+        self._write_xdmf(records[-1]["load"])
         partial = p.summary(records, float("nan"), False, "running")
         keys, values = p.disc.get_state(p.x)
         pieces = p.comm.gather((keys, values), root=0)
@@ -425,7 +455,6 @@ class _RunWriter:
 
     def finish(self, summary: dict) -> None:
         p = self.problem
-        self.xdmf.close()
         u = p.point_displacements()
         if p.comm.rank == 0:
             post.write_json(self.out / "summary.json", summary)

@@ -152,6 +152,34 @@ def test_resume_equals_uninterrupted_run(tmp_path):
     largest_vertex = np.max(np.linalg.norm(u_full, axis=1))
     assert largest_vertex <= result.steps[-1]["max_displacement"] <= 1.05 * largest_vertex
     assert not list((tmp_path / "part").glob(".*tmp*"))       # nothing half-written left behind
+    assert xdmf_times(tmp_path / "part" / "displacement.xdmf") == pytest.approx([k / 6 for k in range(1, 7)])
+
+
+def xdmf_times(path) -> list[float]:
+    """Time values of the displacement series in an XDMF file."""
+    import xml.etree.ElementTree as ET
+    return [float(t.get("Value")) for t in ET.parse(path).getroot().iter("Time")]
+
+
+def test_resume_after_a_kill_sets_a_broken_hdf5_aside(tmp_path):
+    """A run killed while its HDF5 file was open leaves it without a superblock; resuming keeps
+    it as *.broken and starts a new series instead of failing."""
+    count = {"n": 0}
+
+    def stop_after_two(problem):
+        count["n"] += 1
+        if count["n"] == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        return 0.0
+
+    strip_problem().solve(steps=4, out=tmp_path, observers={"stop": stop_after_two})
+    h5 = tmp_path / "displacement.h5"
+    assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.25, 0.5])
+    h5.write_bytes(bytes(4096))                                   # what a SIGKILL can leave
+    result = strip_problem().solve(steps=4, out=tmp_path, resume=True)
+    assert result.converged
+    assert (tmp_path / "displacement.h5.broken").exists() and (tmp_path / "displacement.xdmf.broken").exists()
+    assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.75, 1.0])
 
 
 def test_resume_with_other_steps_is_refused(tmp_path):
