@@ -5,6 +5,8 @@
   increment fails too, the run stops with a message naming the load factor, keeping every
   converged step (Result, summary.json, load_path.csv), or raises SolveFailed on request.
 - PETSc options given from Python to one solve do not leak into later solves.
+- The default absolute tolerance scales with the moduli (the same iterations and solution for
+  moduli and loads scaled by 1e-6 .. 1e6); a given ``snes_atol`` is used as is.
 - A boundary condition that selects no degree of freedom is an error naming it.
 """
 import csv
@@ -201,6 +203,68 @@ def test_python_options_do_not_leak(user_option):
     assert normal.converged, normal.message
     assert max(s["newton_iterations"] for s in normal.steps) > 1
     assert user_option.getAll() == before
+
+
+# ----------------------------------------------------------------------------- absolute tolerance
+#: the body force of :func:`cantilever_problem` per unit modulus scale
+WEIGHT = 0.05
+
+
+def cantilever_problem(scale: float) -> sf.ContactProblem:
+    """The block of :func:`block_problem` clamped at its left end and bent by a body force (tip
+    deflection about 0.9), moduli and body force multiplied by ``scale``: the deformation does
+    not depend on it."""
+    mesh = meshes.quad_rectangle(1.0, BLOCK_HEIGHT, 5, 2, tag=SOLID)
+    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3 * scale, mu=5 / 14 * scale)}, comm=COMM,
+                                verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0), name="clamped")
+    problem.body_force(lambda x: np.stack([np.zeros(x.shape[1]), np.full(x.shape[1], -WEIGHT * scale)]))
+    return problem
+
+
+def test_default_absolute_tolerance_scales_with_the_moduli():
+    """Moduli and body force multiplied by 1e-6, 1 and 1e6: with the default absolute tolerance
+    (proportional to eps ||K|| ||x||) every step takes the same Newton iterations, ends at the
+    same deflection and at a final residual proportional to the scale."""
+    results = {scale: cantilever_problem(scale).solve(2) for scale in (1e-6, 1.0, 1e6)}
+    assert all(r.converged for r in results.values()), {s: r.message for s, r in results.items()}
+    iterations = {s: [step["newton_iterations"] for step in r.steps] for s, r in results.items()}
+    assert iterations[1e-6] == iterations[1.0] == iterations[1e6], iterations
+    deflection = {s: r.steps[-1]["max_displacement"] for s, r in results.items()}
+    assert deflection[1e-6] == pytest.approx(deflection[1.0], rel=1e-10)
+    assert deflection[1e6] == pytest.approx(deflection[1.0], rel=1e-10)
+    final = {s: r.steps[-1]["residual_norms"][-1] for s, r in results.items()}
+    assert final[1e-6] / final[1.0] == pytest.approx(1e-6, rel=1e-2), final
+    assert final[1e6] / final[1.0] == pytest.approx(1e6, rel=1e-2), final
+
+
+@pytest.fixture(params=["python", "command line"])
+def solve_with_fixed_atol(request):
+    """Solve in 2 steps with ``snes_atol`` 1e-10 (the former fixed default) given as
+    ``petsc_options`` or as a global option (removed afterwards)."""
+    def solve(problem: sf.ContactProblem):
+        if request.param == "python":
+            return problem.solve(2, petsc_options={"snes_atol": 1e-10})
+        options = PETSc.Options()
+        options["snes_atol"] = "1e-10"
+        try:
+            return problem.solve(2)
+        finally:
+            options.delValue("snes_atol")
+    return solve
+
+
+def test_given_snes_atol_is_used_as_is(solve_with_fixed_atol):
+    """With moduli and load scaled by 1e-6 the forces are of order 1e-7: a fixed ``snes_atol`` of
+    1e-10, from Python or the command line, is used as given and stops Newton early, with a
+    deflection off by more than 1e-5 (relative) from the converged one."""
+    reference = cantilever_problem(1e-6).solve(2)
+    early = solve_with_fixed_atol(cantilever_problem(1e-6))
+    assert reference.converged and early.converged, (reference.message, early.message)
+    assert sum(s["newton_iterations"] for s in early.steps) < sum(s["newton_iterations"] for s in reference.steps)
+    assert all(1e-12 < s["residual_norms"][-1] <= 1e-10 for s in early.steps), early.steps
+    deflection, converged_deflection = early.steps[-1]["max_displacement"], reference.steps[-1]["max_displacement"]
+    assert abs(deflection - converged_deflection) > 1e-5 * converged_deflection
 
 
 # ----------------------------------------------------------------------------- boundary conditions
