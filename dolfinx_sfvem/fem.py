@@ -23,6 +23,25 @@ orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan). Measure
 C-box at u_y = -0.3 (3138 unknowns): the reaction changes by 3e-5 (relative) from
 degree 2 to 4 and by 1e-8 from 4 to 6; the 15-step solve takes 1.8 / 2.2 / 2.6 s with
 degree 2 / 4 / 6.
+
+Known limitation: the medium folds in strong compression. A P2 field that kinks along an
+element edge carries no regularization energy there (G is cell-wise), so the regularization
+loses its hold on the medium as the triangles get smaller; the soft modes of the compressed
+medium are such kinks (gradient jumps across edges outweigh the cell-wise G by 40 to 1e4 in
+the lowest tangent modes of the C-box). On the C-box (rotation, gamma = 1e-5, alpha_r = 1,
+matched mesh, 3138 unknowns) the medium folds around the beam tips: solid vertices lie
+inside deformed medium triangles from u_y = -0.25 on, and at u_y = -0.3376 the load path has
+a limit point (the smallest tangent eigenvalue goes to zero like sqrt(λ_c - λ), the reaction
+peaks), beyond which no line search, increment or tolerance continues (quadrature degrees 2
+to 8 only move the limit point; a run that differs in round-off stalls at u_y = -0.4446).
+Load factor reached with 25 steps to u_y = -0.5: structured meshes h = 0.1: 1; h = 0.05: 1
+with all diagonals one way, 0.89 the other way, 0.97 alternating, 0.64 crossed; h = 0.025:
+0.57 to 0.70; gmsh meshes h = 0.03 to 0.06: 0.67 to 0.80. The SFVEM (G projected over whole
+polygons) reaches the full load on both medium densities, without solid vertices inside
+medium polygons at u_y = -0.3. Interior-penalty terms on the medium's interior facets
+(``-{T}:([[F]] x n) + eta/h (psi(avg F, [[F]] x n) - psi(avg F, 0))``) stop the folding
+(full load on every mesh tried, eta >= 40) but change the model: the regularization then
+acts across elements and the C-box reaction at u_y = -0.2 is 63 % higher.
 """
 from __future__ import annotations
 
