@@ -6,12 +6,14 @@ the polygon's projection order (DESIGN §4.4). Every point costs one evaluation 
 pointwise energy kernels per assembly, so the rules are made small:
 
 - the reference: Gauss rules on each polygon's sub-triangles (:func:`polygon_quadrature`);
-- parallelograms (any number of collinear hanging nodes on their sides) get a rule of
-  the square mapped affinely: Stroud's 12 points up to degree 7, tensor Gauss beyond;
-- every other polygon gets the sub-triangle rule compressed to at most dim P_d points by
+- parallelograms (any number of collinear hanging nodes on their sides) get the tensor
+  Gauss rule of the parallelogram, (d//2 + 1)² points;
+- other polygons where it is allowed (by default: regions whose energy has no gradient
+  term, i.e. the solids) get the sub-triangle rule compressed to at most dim P_d points by
   non-negative least squares on the moments (Carathéodory–Tchakaloff compression): a
   subset of the sub-triangle points with new positive weights, exact for the same degree
-  (:func:`compressed_polygon_quadrature`).
+  (:func:`compressed_polygon_quadrature`). In the third medium, whose integrand is far from
+  polynomial near contact, the other polygons keep the full sub-triangle rule.
 """
 from __future__ import annotations
 
@@ -140,20 +142,13 @@ def parallelogram_corners(xy: npt.NDArray[np.float64], tol: float = 1e-10) -> np
 
 @functools.lru_cache(maxsize=None)
 def unit_square_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """A positive rule on [0, 1]² exact for ``degree``: points (n, 2), weights (n,) summing to 1.
+    """Tensor Gauss–Legendre rule on [0, 1]², exact for ``degree``: (degree//2 + 1)² points (n, 2),
+    weights (n,) summing to 1.
 
-    Degree <= 7: Stroud's 12-point rule C2: 7-1 (A. H. Stroud, *Approximate Calculation of
-    Multiple Integrals*, 1971), all points inside. Higher degrees: tensor Gauss–Legendre,
-    (degree//2 + 1)² points.
+    Not a smaller rule of the same degree: Stroud's 12-point degree-7 rule (instead of 16
+    points) made Newton stall in the compressed third medium of the box (mesh 3, gamma = 1e-6,
+    at u_y = -0.29), where this rule and the sub-triangle rule converge.
     """
-    if degree <= 7:
-        q = np.sqrt(583.0)
-        r, s, t = np.sqrt(6 / 7), np.sqrt((114 - 3 * q) / 287), np.sqrt((114 + 3 * q) / 287)
-        signs = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
-        xi = np.array([(r, 0), (-r, 0), (0, r), (0, -r)] + [(a * s, b * s) for a, b in signs]
-                      + [(a * t, b * t) for a, b in signs])
-        w = np.repeat([49 / 810, (178981 + 2769 * q) / 1888920, (178981 - 2769 * q) / 1888920], 4)
-        return (xi + 1) / 2, w
     g, wg = np.polynomial.legendre.leggauss(degree // 2 + 1)
     S, T = np.meshgrid((g + 1) / 2, (g + 1) / 2, indexing="ij")
     return np.column_stack([S.ravel(), T.ravel()]), np.outer(wg / 2, wg / 2).ravel()
@@ -192,7 +187,8 @@ def compress_rule(points: npt.NDArray[np.float64], weights: npt.NDArray[np.float
 def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64],
                                   vertices: npt.NDArray[np.int64], nodes: npt.NDArray[np.float64],
                                   triangles: npt.NDArray[np.int64], triangle_offsets: npt.NDArray[np.int64],
-                                  polygons: npt.NDArray[np.int64], degrees: npt.NDArray[np.integer]):
+                                  polygons: npt.NDArray[np.int64], degrees: npt.NDArray[np.integer],
+                                  compress: npt.NDArray[np.bool_] | None = None):
     """Small positive rules on the given polygons, exact for ``degrees`` (module docstring).
 
     Parameters
@@ -201,6 +197,9 @@ def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.
         The polygon mesh: polygon e has the vertices ``points[vertices[offsets[e]:offsets[e + 1]]]``.
     nodes, triangles, triangle_offsets, polygons, degrees
         As for :func:`polygon_quadrature`, whose rule is compressed.
+    compress : (n,) bool, optional
+        Whether NNLS compression is allowed on each of ``polygons`` (default: everywhere);
+        parallelograms get their tensor rule regardless.
 
     Returns
     -------
@@ -212,10 +211,14 @@ def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.
     degrees = np.asarray(degrees, dtype=np.int64)
     q_offsets, x_q, w_q = polygon_quadrature(nodes, triangles, triangle_offsets, polygons, degrees)
     rules = []
+    compress = np.ones(polygons.size, dtype=bool) if compress is None else np.asarray(compress, dtype=bool)
     for k, (e, d) in enumerate(zip(polygons, degrees)):
         corners = parallelogram_corners(points[vertices[offsets[e]:offsets[e + 1]]])
         q = slice(q_offsets[k], q_offsets[k + 1])
-        rules.append(parallelogram_rule(corners, d) if corners is not None else compress_rule(x_q[q], w_q[q], d))
+        if corners is not None:
+            rules.append(parallelogram_rule(corners, d))
+        else:
+            rules.append(compress_rule(x_q[q], w_q[q], d) if compress[k] else (x_q[q], w_q[q]))
     counts = [w.size for _, w in rules]
     return (np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
             np.vstack([x for x, _ in rules]), np.concatenate([w for _, w in rules]))

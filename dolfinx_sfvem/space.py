@@ -107,10 +107,13 @@ class VEMSpace:
     quadrature_degree
         Degree integrated exactly by the energy quadrature; default ``2 l`` per polygon.
     quadrature
-        ``"compressed"`` (default): the smallest rules of :mod:`dolfinx_sfvem.quadrature`
-        (square rules on parallelograms, compressed sub-triangle rules elsewhere);
+        ``"compressed"`` (default): the small rules of :mod:`dolfinx_sfvem.quadrature`
+        (tensor Gauss on parallelograms, compressed sub-triangle rules on the other polygons
+        of the regions in ``compress_tags``);
         ``"subtriangles"``: Gauss rules on every sub-triangle (the reference, about 1.7×
         the points).
+    compress_tags
+        Region tags whose non-parallelogram polygons may get compressed rules (default: all).
     verbose
         Print the distribution of l on rank 0.
 
@@ -146,7 +149,8 @@ class VEMSpace:
 
     def __init__(self, mesh: PolygonMesh, comm: MPI.Comm = MPI.COMM_WORLD, *,
                  l: int | npt.ArrayLike | None = None, l_min: int = 3,
-                 quadrature_degree: int | None = None, quadrature: str = "compressed", verbose: bool = True):
+                 quadrature_degree: int | None = None, quadrature: str = "compressed",
+                 compress_tags: typing.Collection[int] | None = None, verbose: bool = True):
         if quadrature not in QUADRATURES:
             raise ValueError(f"unknown quadrature {quadrature!r}; use one of {QUADRATURES}")
         self.polygon_mesh = mesh
@@ -168,7 +172,8 @@ class VEMSpace:
         triangles = (mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
         self.q_offsets, self.x_q, self.w_q = (
             polygon_quadrature(*triangles) if quadrature == "subtriangles"
-            else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles))
+            else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles,
+                                               None if compress_tags is None else np.isin(self.tags, list(compress_tags))))
         self._to_p2 = None
         if verbose:
             text = self.summary()
