@@ -65,13 +65,22 @@ parameters) is skipped, a run stopped by a signal is resumed from its checkpoint
 failed is not repeated unless ``--retry-failed`` is given. Ctrl-C stops the sweep after the
 current load step.
 
-Run time (measured on 2 ranks of a shared 2-core machine, h = 0.05): mesh 1 (5,658 DOFs), gamma = 1e-5,
-alpha_r = 1, 100 steps: 3.7 min (326 Newton iterations, no cut-back; final gap 1.953e-3, paper
-2.182e-3). The same first steps take 1.45x as long on mesh 2 (10,674 DOFs) and 2.5x on mesh 3
-(19,818 DOFs), so one 100-step run is about 4 / 6 / 10 min on meshes 1 / 2 / 3 and the full
-``--table2`` (27 runs) about 3 h, ``--table3`` (9 runs) about 1 h, ``--fig4`` (3 runs on mesh 3)
-about 30 min, more where small gamma needs extra Newton iterations or cut-backs. ``--steps``
-scales this about linearly, ``--meshes 1`` takes a fifth of it.
+Run time (measured on 2 ranks of a 2-core machine, h = 0.05, 100 steps): mesh 1 (5,658 DOFs)
+11-13 s per run (gamma = 1e-5, alpha_r = 1: final gap 1.953e-3, paper 2.182e-3), mesh 2 (10,674
+DOFs) 20-23 s, mesh 3 (19,818 DOFs) 44-142 s (more where cut-backs are needed); the whole
+``--table2`` (27 runs) took 16 min, ``--table3`` runs take about twice as long (the unscaled
+regularization needs more Newton iterations). ``--steps`` scales this about linearly.
+
+Mesh 3 with the exp(-5 J) scaling (``--table2``): five of its nine runs stop before the full
+load (docs/results.md). Four (alpha_r = 10 at every gamma, alpha_r = 1 at gamma = 1e-6) reach a
+bifurcation: at the last converged state the tangent has one negative eigenvalue (-5e-9 to
+-3e-7, the next ones positive) whose mode lives in the medium at a corner of the cavity, where
+the flange turns against the wall. The upper corner quads are stretched there (mean J 1.7 to
+3.7) while pinched at a vertex (J down to 0.02), and the scaling has switched their
+regularization almost off (exp(-5 * 1.7) = 2e-4). The fifth (alpha_r = 0.1, gamma = 1e-6)
+stops at load 0.91 in the contact zone at mid-span (J down to 2e-3) with a positive definite
+tangent. Without the scaling (``--no-beta``, as in ``--table3``) alpha_r = 1, gamma = 1e-6
+reaches the full load on mesh 3 (gap 4.42e-4, 3 min on 1 rank).
 
 Examples::
 

@@ -127,6 +127,7 @@ def test_page_lists_missing_and_short_runs(page):
     assert "| cbox-mesh2-fem | stopped at load 0.5 |" in text
     assert "Table 3: not run." in text
     assert "Runs short of the full load: cbox-mesh2-fem (stopped at load 0.5: step 2: load step failed)" in text
+    assert "Why (cbox-mesh2-fem): C-box with P2 FEM:" in text          # an analysed stop
     assert "TODO (maintainers)" in text
     assert "chose l > 3 in 31 of 31 runs, on at most 10 of 100 polygons" in text
 
@@ -181,3 +182,13 @@ def test_restart_decisions(tmp_path):
     assert (go, resume) == (True, False) and "moved" in note
     assert not (tmp_path / run.out).exists()
     assert len(list((tmp_path / "superseded").glob("cbox-mesh1-vem-*/cbox-mesh1-vem/summary.json"))) == 1
+
+
+def test_stops_are_sorted_by_their_analysed_cause():
+    explained, unexplained = results.explain_stops(
+        ["cbox-mesh1-fem", "cbox-uy1-fem-np1", "box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh3",
+         "box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh2", "punch-rigid-vem"])
+    assert unexplained == ["box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh2", "punch-rigid-vem"]
+    assert sorted(len(names) for names in explained.values()) == [1, 2]
+    fem = next(why for why, names in explained.items() if "cbox-mesh1-fem" in names)
+    assert explained[fem] == ["cbox-mesh1-fem", "cbox-uy1-fem-np1"] and "P2 FEM" in fem
