@@ -260,7 +260,7 @@ class ContactProblem:
             records.append(asdict(rec))
             self._progress(rec)
             if writer is not None:
-                writer.step(records)
+                writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time)
 
         def on_failure(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, False)
@@ -436,12 +436,14 @@ class _RunWriter:
             f.write_function(self.u_p1, load)
         self.xdmf_started = True
 
-    def step(self, records: list[dict]) -> None:
+    def step(self, records: list[dict], wall: float) -> None:
+        """Write the converged step ``records[-1]``: XDMF, checkpoint, a summary marked running
+        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv."""
         p = self.problem
         self.u_p2 = p.disc.output_function(p.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
         self._write_xdmf(records[-1]["load"])
-        partial = p.summary(records, float("nan"), False, "running")
+        partial = p.summary(records, wall, False, "running")
         keys, values = p.disc.get_state(p.x)
         pieces = p.comm.gather((keys, values), root=0)
         if p.comm.rank == 0:

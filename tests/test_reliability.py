@@ -163,21 +163,28 @@ def xdmf_times(path) -> list[float]:
 
 def test_resume_after_a_kill_sets_a_broken_hdf5_aside(tmp_path):
     """A run killed while its HDF5 file was open leaves it without a superblock; resuming keeps
-    it as *.broken and starts a new series instead of failing."""
+    it as *.broken and starts a new series instead of failing. The summary a kill leaves (the
+    one written after the last converged step) holds the wall time so far, which the resumed
+    run adds to its own."""
     count = {"n": 0}
+    running = {}
 
     def stop_after_two(problem):
         count["n"] += 1
         if count["n"] == 2:
+            running.update(json.loads((tmp_path / "summary.json").read_text()))
             os.kill(os.getpid(), signal.SIGINT)
         return 0.0
 
     strip_problem().solve(steps=4, out=tmp_path, observers={"stop": stop_after_two})
+    assert running["message"] == "running" and 0.0 < running["wall_time_s"] < float("inf")
+    killed = {**json.loads((tmp_path / "summary.json").read_text()), "message": "running"}
+    (tmp_path / "summary.json").write_text(json.dumps(killed))   # as a SIGKILL after step 2 leaves it
     h5 = tmp_path / "displacement.h5"
     assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.25, 0.5])
     h5.write_bytes(bytes(4096))                                   # what a SIGKILL can leave
     result = strip_problem().solve(steps=4, out=tmp_path, resume=True)
-    assert result.converged
+    assert result.converged and result.wall_time_s > killed["wall_time_s"] > running["wall_time_s"]
     assert (tmp_path / "displacement.h5.broken").exists() and (tmp_path / "displacement.xdmf.broken").exists()
     assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.75, 1.0])
 
