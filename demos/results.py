@@ -938,11 +938,14 @@ def explain_stops(names: typing.Iterable[str]) -> tuple[dict[str, list[str]], li
 def _short_runs(root: pathlib.Path) -> list[str]:
     """Every run made (sweeps included) that stopped short of the full load, with its message and,
     where analysed, the cause."""
-    failed = {name: s for name, s in made_runs(root).items() if not s["converged"]}
+    short = {name: s for name, s in made_runs(root).items() if not s["converged"]}
+    paused = [name for name, s in short.items() if interrupted(s)]
+    failed = {name: s for name, s in short.items() if name not in paused}
+    items = [f"Interrupted, `make results` continues them: {', '.join(paused)}."] if paused else []
     if not failed:
-        return ["Every run made reached the full load."]
+        return items + ["Every run that finished reached the full load."]
     explained, unexplained = explain_stops(failed)
-    items = [f"Runs short of the full load: {'; '.join(f'{n} ({status(s, why=True)})' for n, s in failed.items())}."]
+    items += [f"Runs short of the full load: {'; '.join(f'{n} ({status(s, why=True)})' for n, s in failed.items())}."]
     items += [f"Why ({', '.join(names)}): {why}." for why, names in explained.items()]
     if unexplained:
         items.append(f"Not analysed: {', '.join(unexplained)}. **TODO (maintainers): why.**")

@@ -192,3 +192,13 @@ def test_stops_are_sorted_by_their_analysed_cause():
     assert sorted(len(names) for names in explained.values()) == [1, 2]
     fem = next(why for why, names in explained.items() if "cbox-mesh1-fem" in names)
     assert explained[fem] == ["cbox-mesh1-fem", "cbox-uy1-fem-np1"] and "P2 FEM" in fem
+
+
+def test_interrupted_runs_are_not_counted_as_stops(tmp_path):
+    write(tmp_path / "punch-soft-vem-np1", {**summary(loads=(0.5,)), "converged": False, "message": "running"})
+    write(tmp_path / "cbox-mesh1-vem", summary())
+    assert results._short_runs(tmp_path) == ["Interrupted, `make results` continues them: punch-soft-vem-np1.",
+                                             "Every run that finished reached the full load."]
+    write(tmp_path / "punch-rigid-vem", {**summary(loads=(0.5,)), "converged": False, "message": "step 2: failed"})
+    items = results._short_runs(tmp_path)
+    assert items[1].startswith("Runs short of the full load: punch-rigid-vem (") and "TODO" in items[-1]
