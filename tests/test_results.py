@@ -5,6 +5,7 @@ listed as "not run", and the Table 2 acceptance logic on constructed data.
 """
 from __future__ import annotations
 
+import fnmatch
 import json
 import pathlib
 import sys
@@ -202,3 +203,11 @@ def test_interrupted_runs_are_not_counted_as_stops(tmp_path):
     write(tmp_path / "punch-rigid-vem", {**summary(loads=(0.5,)), "converged": False, "message": "step 2: failed"})
     items = results._short_runs(tmp_path)
     assert items[1].startswith("Runs short of the full load: punch-rigid-vem (") and "TODO" in items[-1]
+
+
+def test_analysed_causes_name_existing_examples_and_runs():
+    assert set(results.ANALYSED_METHOD_DIFFERENCES) <= {e.key for e in results.EXAMPLES}
+    names = [r.name for r in results.plan(quick=False, ranks=2)]
+    for pattern, _ in results.ANALYSED_STOPS:
+        first = pattern.split("/")[0]
+        assert any(fnmatch.fnmatch(n, first) for n in names), pattern
