@@ -106,6 +106,9 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--beta", type=non_negative_float, default=beta,
                    help="exponent of the exp(-beta J) scaling of the regularization "
                         f"(default {'off' if beta is None else '%(default)s'})")
+    p.add_argument("--fem-jump-penalty", type=positive_float, default=None, metavar="ETA",
+                   help="--method fem only: add C0 interior-penalty terms with penalty ETA on the medium's "
+                        "interior facets (dolfinx_sfvem/fem.py; e.g. 40; default: none, as the paper's model)")
     p.add_argument("--quiet", action="store_true", help="no progress output, only the final lines")
     p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
                    help="continue the stopped run in DIR from its last converged step (same options as that run)")
@@ -123,6 +126,8 @@ def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = N
             p.error(f"unrecognized argument {token!r} (PETSc options start with a single '-')")
         if not _is_option_name(token) and (k == 0 or not _is_option_name(rest[k - 1])):
             p.error(f"unexpected argument {token!r} (not the value of a PETSc option)")
+    if args.fem_jump_penalty is not None and args.method != "fem":
+        p.error("--fem-jump-penalty needs --method fem")
     sf.set_petsc_options(rest)
     args.petsc_options = rest
     if args.resume is not None:
@@ -137,6 +142,15 @@ def _is_option_name(token: str) -> bool:
     except ValueError:
         return token.startswith("-")
     return False
+
+
+def discretization(args: argparse.Namespace) -> dict:
+    """Keyword arguments of :class:`~dolfinx_sfvem.ContactProblem` from the command line
+    (``--method``, ``--quiet``, ``--fem-jump-penalty``)."""
+    options = {"method": args.method, "verbose": not args.quiet}
+    if args.fem_jump_penalty is not None:
+        options["jump_penalty"] = args.fem_jump_penalty
+    return options
 
 
 def third_medium(args: argparse.Namespace, mu: float) -> sf.ThirdMedium:

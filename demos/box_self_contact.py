@@ -155,7 +155,7 @@ FIG4_ALPHA_R, FIG4_MESH = 0.1, 3
 #: options that only steer a sweep (not stored in the parameters of the single runs)
 SWEEP_OPTIONS = ("table2", "table3", "fig4", "meshes", "alpha_rs", "gammas", "regularizations", "retry_failed")
 #: parameters that must agree for a finished run to be reused by a sweep
-RUN_KEYS = ("method", "steps", "h", "uy", "mesh", "gamma", "alpha_r", "regularization", "beta")
+RUN_KEYS = ("method", "steps", "h", "uy", "mesh", "gamma", "alpha_r", "regularization", "beta", "fem_jump_penalty")
 
 
 # --------------------------------------------------------------------------- command line
@@ -202,7 +202,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     bench = sf.meshes.box(mesh=args.mesh, h_solid=args.h)
     problem = sf.ContactProblem(bench.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
                                              sf.meshes.MEDIUM: common.third_medium(args, mu=MU)},
-                                method=args.method, verbose=not args.quiet)
+                                **common.discretization(args))
     problem.fix(common.at_point(bench.points["fixed"]))
     problem.fix(common.at_point(bench.points["roller"]), components=(1,), name="roller")
     problem.prescribe(common.at_point(bench.points["load"]), uy=args.uy, name="load")

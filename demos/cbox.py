@@ -89,7 +89,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     box = sf.meshes.cbox(h_solid=args.h, medium_refinement=args.mesh)
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
                                            sf.meshes.MEDIUM: common.third_medium(args, mu=MU)},
-                                method=args.method, verbose=not args.quiet)
+                                **common.discretization(args))
     problem.fix(common.on_segment(*box.segments["fixed"]))
     tip = common.at_point(box.points["load"])
     problem.prescribe(tip, uy=args.uy, name="load")

@@ -129,7 +129,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     problem = sf.ContactProblem(bench.mesh, {block: sf.Hyperelastic(K=K_BLOCK, mu=MU_BLOCK),
                                              discs: sf.Hyperelastic(K=K_DISC, mu=MU_DISC),
                                              medium: common.third_medium(args, mu=MU_BLOCK)},
-                                method=args.method, verbose=not args.quiet)
+                                **common.discretization(args))
     problem.fix(common.on_segment(*bench.segments["left_end"]), name="left")
     problem.fix(common.on_segment(*bench.segments["right_end"]), components=(0, 1) if args.bc == 1 else (1,),
                 name="right")

@@ -114,7 +114,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     problem = sf.ContactProblem(bench.mesh, {block: sf.Hyperelastic(K=K, mu=MU),
                                              punch: sf.Hyperelastic(K=K_p, mu=mu_p),
                                              medium: common.third_medium(args, mu=MU)},
-                                method=args.method, verbose=not args.quiet)
+                                **common.discretization(args))
     problem.fix(common.on_segment(*bench.segments["fixed"]), name="fixed")
     problem.fix(common.on_segment(*bench.segments["symmetry"]), components=(0,), name="symmetry")
     problem.prescribe(common.on_segment(*bench.segments["load"]), tags=[punch], uy=args.uy, name="load")

@@ -198,8 +198,9 @@ def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
 
 # --------------------------------------------------------------------------- P2 FEM reference
 def create_triangle_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64],
-                                     x: npt.NDArray[np.float64]) -> dolfinx.mesh.Mesh:
-    """Distributed affine triangle mesh partitioned by DOLFINx's graph partitioner, no ghost cells.
+                                     x: npt.NDArray[np.float64], *, ghost_facet_neighbours: bool = False
+                                     ) -> dolfinx.mesh.Mesh:
+    """Distributed affine triangle mesh partitioned by DOLFINx's graph partitioner.
 
     Parameters
     ----------
@@ -207,11 +208,32 @@ def create_triangle_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64
         Input cells held by this rank (usually all on rank 0, none elsewhere).
     x : (n_nodes, 2) float64
         Input node coordinates held by this rank.
+    ghost_facet_neighbours
+        Ghost the cells across the partition's facets (``GhostMode.shared_facet``), as interior
+        facet integrals need; otherwise no ghost cells.
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    ghost_mode = dolfinx.mesh.GhostMode.shared_facet if ghost_facet_neighbours else dolfinx.mesh.GhostMode.none
     return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells, dtype=np.int64),
-                                    np.ascontiguousarray(x, dtype=np.float64), domain,
-                                    ghost_mode=dolfinx.mesh.GhostMode.none)
+                                    np.ascontiguousarray(x, dtype=np.float64), domain, ghost_mode=ghost_mode)
+
+
+def interior_facets(mesh: dolfinx.mesh.Mesh) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+    """Local facets with two local cells: (facets (n,), their two cells (n, 2))."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    counts = np.diff(f2c.offsets)
+    facets = np.flatnonzero(counts == 2).astype(np.int32)
+    cells = f2c.array[f2c.offsets[facets][:, None] + np.arange(2)].astype(np.int32)
+    return facets, cells
+
+
+def create_facet_tags(mesh: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32], values: npt.NDArray[np.int32]):
+    """Facet tags (dimension tdim - 1) of the given local facets (sorted, as DOLFINx requires)."""
+    order = np.argsort(facets)
+    return dolfinx.mesh.meshtags(mesh, mesh.topology.dim - 1, np.ascontiguousarray(facets[order], dtype=np.int32),
+                                 np.ascontiguousarray(values[order], dtype=np.int32))
 
 
 def create_cell_tags(mesh: dolfinx.mesh.Mesh, values: npt.NDArray[np.int32]):

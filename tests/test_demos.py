@@ -70,6 +70,8 @@ def test_cbox_outputs(tmp_path):
     (["--h", "0.5"], "argument --h: must be a number in (0, 0.1]"),
     (["--regularization", "foo"], "argument --regularization: invalid choice"),
     (["--stepz", "3"], "unrecognized argument '--stepz'"),
+    (["--fem-jump-penalty", "40"], "--fem-jump-penalty needs --method fem"),
+    (["--method", "fem", "--fem-jump-penalty", "0"], "argument --fem-jump-penalty: must be a number > 0"),
 ])
 def test_cbox_rejects_bad_input(tmp_path, args, message):
     proc = run_demo("cbox", *args, out=tmp_path)
@@ -107,3 +109,11 @@ def test_expected_errors_become_exit_code_2(capsys, error):
 
     assert common.exit_code(main) == 2
     assert capsys.readouterr().err.strip() == "error: polygon 7: self-intersection"
+
+
+def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
+    proc = run_demo("cbox", *SMALL, "--method", "fem", "--fem-jump-penalty", "40", out=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["converged"] and summary["method"] == "fem"
+    assert summary["jump_penalty"] == 40.0 and summary["parameters"]["fem_jump_penalty"] == 40.0
