@@ -321,25 +321,20 @@ def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | No
             print(f"[sweep] {run_args.out}: converged before, skipped", flush=True)
         return previous, "done"
     status = "ran"
-    if same and not args.retry_failed and previous["message"] and not _interrupted(previous):
+    if same and not args.retry_failed and previous["message"] and not sf.problem.interrupted(previous):
         if rank0:
             print(f"[sweep] {run_args.out}: failed before ({previous['message']}), skipped "
                   f"(--retry-failed repeats it)", flush=True)
         return previous, "failed-before"
-    if same and _interrupted(previous) and (run_args.out / sf.problem.CHECKPOINT).exists():
+    if same and sf.problem.interrupted(previous) and (run_args.out / sf.problem.CHECKPOINT).exists():
         run_args.resume, status = run_args.out, "resumed"
     if rank0:
         print(f"[sweep] {run_args.out}: {'resuming' if status == 'resumed' else 'running'}", flush=True)
     single(run_args)
     summary = _read_summary(run_args.out)
-    if summary is not None and _interrupted(summary):
+    if summary is not None and sf.problem.interrupted(summary):
         status = "stopped"
     return summary, status
-
-
-def _interrupted(summary: dict) -> bool:
-    """A run stopped by a signal, or killed while running (its summary says "running")."""
-    return summary["message"] == "running" or summary["message"].startswith("stopped by signal")
 
 
 def _final(summary: dict | None) -> dict:

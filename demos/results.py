@@ -66,6 +66,7 @@ import typing
 
 import box_self_contact as box
 from dolfinx_sfvem import compare, post
+from dolfinx_sfvem.problem import CHECKPOINT, interrupted
 
 DEMOS = pathlib.Path(__file__).resolve().parent
 REPO = DEMOS.parent
@@ -242,11 +243,6 @@ def read_summary(directory: pathlib.Path) -> dict | None:
         return None
 
 
-def interrupted(summary: dict) -> bool:
-    """A run stopped by a signal, or killed while running (its summary says "running")."""
-    return summary["message"] == "running" or summary["message"].startswith("stopped by signal")
-
-
 def expected_parameters(run: Run) -> dict:
     """The parameters the demo stores for ``run.argv`` (from the demo's own parser)."""
     args, _ = importlib.import_module(run.demo).make_parser().parse_known_args(list(run.argv))
@@ -267,7 +263,7 @@ def state(run: Run, root: pathlib.Path) -> str:
     if summary["converged"]:
         return "done"
     if interrupted(summary):
-        return "interrupted" if (root / run.out / "checkpoint.npz").exists() else "other"
+        return "interrupted" if (root / run.out / CHECKPOINT).exists() else "other"
     return "failed"
 
 

@@ -30,6 +30,10 @@ from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 CHECKPOINT = "checkpoint.npz"
+#: summary.json message of a run between its steps (what a killed run leaves behind)
+RUNNING = "running"
+#: summary.json message of a run stopped by SIGINT/SIGTERM (followed by the signal number)
+STOPPED_BY_SIGNAL = "stopped by signal"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -286,7 +290,7 @@ class ContactProblem:
                     raise
         signalled = self.comm.allreduce(stop.signalled, op=MPI.MAX)
         if signalled:
-            message = f"stopped by signal {signalled} at load factor {load:.6g}"
+            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {load:.6g}"
         return self._finish(writer, records, t_start, load, message)
 
     def _check_initial_state(self) -> None:
@@ -387,6 +391,12 @@ class _StopRequest:
         return False
 
 
+def interrupted(summary: typing.Mapping[str, typing.Any]) -> bool:
+    """Whether a summary.json belongs to a run that was killed between steps or stopped by a
+    signal, i.e. one that ``solve(..., resume=True)`` continues."""
+    return summary["message"] == RUNNING or summary["message"].startswith(STOPPED_BY_SIGNAL)
+
+
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:
     with open(path, "rb") as f:
         return f.read(n)
@@ -443,7 +453,7 @@ class _RunWriter:
         self.u_p2 = p.disc.output_function(p.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
         self._write_xdmf(records[-1]["load"])
-        partial = p.summary(records, wall, False, "running")
+        partial = p.summary(records, wall, False, RUNNING)
         keys, values = p.disc.get_state(p.x)
         pieces = p.comm.gather((keys, values), root=0)
         if p.comm.rank == 0:

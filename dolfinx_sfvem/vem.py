@@ -120,6 +120,7 @@ class SFVEMDiscretization:
         self._coo_off = np.concatenate([[0], np.cumsum(4 * nd * nd)]).astype(np.int64)
         self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
         self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)
+        self._constrained_key, self._constrained_at = None, None   # :meth:`_constrained_entries`
 
     # ------------------------------------------------------------------ PETSc objects
     def create_vector(self) -> PETSc.Vec:
@@ -199,7 +200,7 @@ class SFVEMDiscretization:
     def _constrained_entries(self, constrained: np.ndarray) -> np.ndarray:
         """Positions of the COO block entries in constrained rows (cached per constrained set)."""
         key = constrained.tobytes()
-        if getattr(self, "_constrained_key", None) != key:
+        if self._constrained_key != key:
             self._constrained_key = key
             self._constrained_at = np.flatnonzero(constrained[self._local_rows])
         return self._constrained_at
