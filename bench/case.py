@@ -76,7 +76,7 @@ def patch_setup_stages(timer: instrument.StageTimer, method: str) -> None:
         timer.patch(dolfinx_sfvem.vem, "basis_derivative_tables", "basis_tables")
     else:
         timer.patch(dolfinx_sfvem.fem, "matched_triangulation", "remesh")
-        timer.patch(dolfinx_sfvem._compat, "create_triangle_mesh_partitioned", "dolfinx_mesh")
+        timer.patch(dolfinx_sfvem._compat, "create_mesh_partitioned", "dolfinx_mesh")
         timer.patch(dolfinx_sfvem.fem.P2Discretization, "_build_forms", "forms")
 
 
@@ -188,7 +188,7 @@ def mesh_facts(problem: sf.ContactProblem, comm: MPI.Comm) -> dict:
     else:
         facts["triangles"] = int(disc.output_mesh.n_polygons)
         facts["fem_h"] = disc.mesh_size
-        _, weights = dolfinx_sfvem._compat.triangle_quadrature(disc.quadrature_degree)
+        _, weights = dolfinx_sfvem._compat.reference_quadrature(disc.mesh, disc.quadrature_degree)
         local_points = dolfinx_sfvem._compat.num_owned_cells(disc.mesh) * weights.size
     facts["quadrature_points"] = int(comm.allreduce(local_points, op=MPI.SUM))
     return facts

@@ -120,8 +120,10 @@ def input_node_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
 
 
 def cell_geometry_nodes(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int32]:
-    """Geometry node indices of each local cell, shape (n_local_cells, 3)."""
-    return mesh.geometry.dofmap.array.reshape(-1, 3)
+    """Geometry node indices of each local cell, shape (n_local_cells, 3 or 4), in DOLFINx's
+    vertex order (:data:`COUNTER_CLOCKWISE` turns it counter-clockwise)."""
+    dofmap = mesh.geometry.dofmap
+    return dofmap.array.reshape(dofmap.num_nodes, -1)
 
 
 def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
@@ -197,24 +199,36 @@ def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
 
 
 # --------------------------------------------------------------------------- P2 FEM reference
-def create_triangle_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64],
-                                     x: npt.NDArray[np.float64], *, ghost_facet_neighbours: bool = False
-                                     ) -> dolfinx.mesh.Mesh:
-    """Distributed affine triangle mesh partitioned by DOLFINx's graph partitioner.
+#: vertex count -> the ufl cell of an affine mesh of such cells
+_UFL_CELL = {3: ufl.triangle, 4: ufl.quadrilateral}
+#: vertex count -> the columns that put DOLFINx's cell vertices counter-clockwise (DOLFINx
+#: numbers a quadrilateral's vertices in tensor-product order: (0, 0), (1, 0), (0, 1), (1, 1));
+#: the permutation is its own inverse
+COUNTER_CLOCKWISE = {3: [0, 1, 2], 4: [0, 1, 3, 2]}
+
+
+def create_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], *,
+                            ghost_facet_neighbours: bool = False) -> dolfinx.mesh.Mesh:
+    """Distributed mesh of triangles or quadrilaterals partitioned by DOLFINx's graph partitioner.
 
     Parameters
     ----------
-    cells : (n_cells, 3) int64
-        Input cells held by this rank (usually all on rank 0, none elsewhere).
+    cells : (n_cells, 3 or 4) int64
+        Input cells held by this rank (usually all on rank 0, none elsewhere), vertices
+        counter-clockwise. Quadrilaterals must be parallelograms for second derivatives of
+        the geometry-mapped fields to be exact.
     x : (n_nodes, 2) float64
         Input node coordinates held by this rank.
     ghost_facet_neighbours
         Ghost the cells across the partition's facets (``GhostMode.shared_facet``), as interior
         facet integrals need; otherwise no ghost cells.
     """
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    n_vertices = cells.shape[1]
+    if n_vertices not in _UFL_CELL:
+        raise ValueError(f"cells must have 3 or 4 vertices, not {n_vertices}")
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", _UFL_CELL[n_vertices], 1))
     ghost_mode = dolfinx.mesh.GhostMode.shared_facet if ghost_facet_neighbours else dolfinx.mesh.GhostMode.none
-    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells, dtype=np.int64),
+    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells[:, COUNTER_CLOCKWISE[n_vertices]], dtype=np.int64),
                                     np.ascontiguousarray(x, dtype=np.float64), domain, ghost_mode=ghost_mode)
 
 
@@ -247,10 +261,12 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
     return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
-def triangle_quadrature(degree: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Basix's default rule on the reference triangle exact for ``degree`` (the rule FFCx uses for
-    ``metadata={"quadrature_degree": degree}``): points (n, 2) and weights (n,)."""
-    points, weights = basix.make_quadrature(basix.CellType.triangle, degree)
+def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int
+                         ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Basix's default rule on the reference cell of ``mesh`` exact for ``degree`` (the rule FFCx
+    uses for ``metadata={"quadrature_degree": degree}``): points (n, 2) and weights (n,)."""
+    cell = basix.cell.string_to_type(mesh.topology.cell_type.name)
+    points, weights = basix.make_quadrature(cell, degree)
     return np.asarray(points), np.asarray(weights)
 
 

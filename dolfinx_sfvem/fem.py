@@ -1,14 +1,16 @@
-"""P2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
+"""Degree-2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
 
-The total energy (paper Eq. 46 with the FEM interpolation in place of the projections)
+P2 on triangles, either a triangulation of the polygon mesh's regions (the default) or a
+given triangle mesh; Q2 on a given mesh of parallelograms (``fem_mesh``). The total energy (paper Eq. 46 with the FEM interpolation in place of the projections)
 
     Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
 
 is one UFL form with each region's parameters as ``fem.Constant`` s, so a single
 FFCx-compiled form serves every parameter value. The residual is ``ufl.derivative`` of
 Π and the tangent the derivative of the residual: no derivative is written by hand.
-``G_ijk = ∂F_ij/∂X_k = ∂²u_i/∂X_j∂X_k`` is constant in each P2 triangle: the broken
-second gradient, without inter-element jump terms (as the SFVEM's G is polygon-wise).
+``G_ijk = ∂F_ij/∂X_k = ∂²u_i/∂X_j∂X_k`` is taken cell by cell (constant in a P2 triangle,
+linear in each direction in a Q2 parallelogram): the broken second gradient, without
+inter-element jump terms (as the SFVEM's G is polygon-wise).
 
 The class mirrors :class:`~dolfinx_sfvem.vem.SFVEMDiscretization` (the protocol
 :class:`~dolfinx_sfvem.problem.ContactProblem` and the solver use): PETSc vectors with
@@ -19,7 +21,9 @@ Quadrature: degree 4 by default (6 points per triangle). F is linear and G const
 P2 triangle, so the small-strain part of every energy and the linear-elastic tangent are
 polynomials of degree 2, the regularizations' G:G of degree 0 and the P2 mass matrix
 (body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
-orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan). Measured on the
+orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan). On quadrilaterals
+basix's degree-4 rule is 3 x 3 Gauss, exact for the Q2 linear-elastic part on parallelograms
+(degree 4 in each direction). Measured on the
 C-box at u_y = -0.3 (3138 unknowns): the reaction changes by 3e-5 (relative) from
 degree 2 to 4 and by 1e-8 from 4 to 6; the 15-step solve takes 1.8 / 2.2 / 2.6 s with
 degree 2 / 4 / 6.
@@ -39,6 +43,20 @@ with all diagonals one way, 0.89 the other way, 0.97 alternating, 0.64 crossed; 
 0.57 to 0.70; gmsh meshes h = 0.03 to 0.06: 0.67 to 0.80. The SFVEM (G projected over whole
 polygons) reaches the full load on both medium densities, without solid vertices inside
 medium polygons at u_y = -0.3.
+
+Q2 on the C-box's medium grid continued through the solid (``fem_mesh`` =
+:func:`~dolfinx_sfvem.meshes.cbox_grid`, the C-box demo's FEM) does not fold: no solid vertex
+inside the medium at u_y = -0.3 (tests/test_fem.py), and full load in every run of the
+results page (2 ranks, 50 steps; 1806 / 6970 unknowns on medium meshes 1 / 2):
+
+| C-box run | Q2 FEM reaction | SFVEM reaction |
+|---|---|---|
+| u_y = -0.5, alpha_r = 1, mesh 1 | 3.442e-4 | 3.535e-4 |
+| u_y = -0.5, alpha_r = 1, mesh 2 | 3.381e-4 | 3.516e-4 |
+| u_y = -1, alpha_r = 20 (100 steps), mesh 1 | 6.735e-3 | 6.553e-3 |
+
+(at full load both methods show 1 to 4 solid vertices inside straight-sided deformed medium
+cells at the contact point, where the medium is compressed to J ~ 1e-3).
 
 Option ``jump_penalty=eta``: C0 interior-penalty terms on the medium's interior facets
 (:meth:`P2Discretization._jump_energy`), which stop the folding but change the model: the
@@ -81,7 +99,7 @@ import dolfinx.la
 from . import _compat, post
 from .energy import Energy
 from .mesh import PolygonMesh
-from .remesh import matched_triangulation, p2_unknowns, sfvem_unknowns, triangulate
+from .remesh import matched_triangulation, sfvem_unknowns, triangulate
 from .vem import AssemblyInfo, check_materials
 
 #: default quadrature degree of the energy, residual and tangent (see the module docstring)
@@ -89,20 +107,22 @@ QUADRATURE_DEGREE = 4
 #: degree of the rule used by :meth:`P2Discretization.error_norms`
 ERROR_QUADRATURE_DEGREE = 8
 
-#: P2 dof 3 + k sits on the reference edge opposite vertex k, i.e. between these vertices
-_EDGE_VERTICES = ((1, 2), (0, 2), (0, 1))
+#: vertex count -> the vertices (DOLFINx's local numbering) of the reference edges that carry
+#: the degree-2 dofs n_vertices + k: P2 dof 3 + k sits on the edge opposite vertex k; Q2 dofs
+#: 4..7 on the edges of the tensor-product quadrilateral (its dof 8 is the cell centre)
+_EDGE_VERTICES = {3: ((1, 2), (0, 2), (0, 1)), 4: ((0, 1), (0, 2), (1, 3), (2, 3))}
 
 
-def _gather_triangles(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The global triangle mesh on every rank, from the owned cells of each rank.
+def _gather_cells(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The global mesh on every rank, from the owned cells of each rank.
 
     Returns
     -------
     points : (n_points, 2)
         The geometry nodes used by cells, ordered by input index.
-    triangles : (n_cells, 3) int64
-        Indices into ``points``, ordered by input cell index.
+    cells : (n_cells, 3 or 4) int64
+        Indices into ``points``, counter-clockwise, ordered by input cell index.
     tags : (n_cells,) int32
     point_of_node : (n_local_geometry_nodes,) int64
         Index in ``points`` of every local geometry node.
@@ -113,19 +133,47 @@ def _gather_triangles(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.C
     local = (_compat.original_cell_index(mesh)[:n_owned], inp[geometry[:n_owned]],
              mesh.geometry.x[geometry[:n_owned], :2], cell_tag[:n_owned])
     cell, nodes, x, tags = (np.concatenate(part) for part in zip(*comm.allgather(local)))
-    inputs, first, triangles = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
-    order = np.argsort(cell)
-    return (x.reshape(-1, 2)[first], triangles.reshape(-1, 3)[order].astype(np.int64), tags[order],
-            np.searchsorted(inputs, inp))
+    inputs, first, cells = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
+    n_vertices = geometry.shape[1]
+    cells = cells.reshape(-1, n_vertices)[np.argsort(cell)][:, _compat.COUNTER_CLOCKWISE[n_vertices]]
+    return x.reshape(-1, 2)[first], cells.astype(np.int64), tags[np.argsort(cell)], np.searchsorted(inputs, inp)
+
+
+def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | None
+               ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """The FEM cells for :meth:`P2Discretization.from_polygon_mesh`: (h, points (n, 2),
+    cells (m, 3 or 4) counter-clockwise, tags (m,)); h is the longest cell edge of ``fem_mesh``."""
+    if fem_mesh is None:
+        h, tri = matched_triangulation(mesh) if fem_h is None else (float(fem_h), triangulate(mesh, fem_h))
+        return h, tri.points, tri.triangles, tri.tags
+    counts = np.unique(np.diff(fem_mesh.offsets))
+    if counts.size != 1 or counts[0] not in (3, 4):
+        raise ValueError("fem_mesh must be all triangles or all quadrilaterals without hanging nodes, "
+                         f"not polygons with {', '.join(map(str, counts))} vertices")
+    cells = fem_mesh.vertices.reshape(-1, counts[0]).astype(np.int64)
+    x = fem_mesh.points[cells]
+    if counts[0] == 4:
+        skew = np.linalg.norm(x[:, 0] + x[:, 2] - x[:, 1] - x[:, 3], axis=1)
+        if skew.max() > fem_mesh.tol:
+            raise ValueError(f"fem_mesh quadrilateral {int(np.argmax(skew))} is not a parallelogram "
+                             "(Q2 second derivatives need affine cells)")
+    for tag in np.union1d(mesh.tags, fem_mesh.tags):
+        a, b = (float(m.areas[m.tags == tag].sum()) for m in (mesh, fem_mesh))
+        if abs(a - b) > 1e-9 * max(a, b):
+            raise ValueError(f"fem_mesh region {tag} has area {b:.10g}, the polygon mesh's {a:.10g}")
+    h = float(np.linalg.norm(x - np.roll(x, -1, axis=1), axis=2).max())
+    return h, fem_mesh.points, cells, fem_mesh.tags
 
 
 class P2Discretization:
-    """P2 Lagrange FEM discretization of Σ_tag ∫ ψ_tag(F, ∇F) dΩ on a DOLFINx triangle mesh.
+    """Degree-2 Lagrange FEM discretization of Σ_tag ∫ ψ_tag(F, ∇F) dΩ: P2 on a DOLFINx
+    triangle mesh, Q2 on a quadrilateral mesh.
 
     Parameters
     ----------
     mesh
-        Affine triangle mesh (any partition, ghosted or not).
+        Affine triangle mesh, or quadrilateral mesh of parallelograms (any partition,
+        ghosted or not).
     cell_tags
         Region tag of every local cell (``dolfinx.mesh.meshtags`` of dimension 2).
     materials
@@ -157,11 +205,11 @@ class P2Discretization:
         n_local_cells = mesh.topology.index_map(2).size_local + mesh.topology.index_map(2).num_ghosts
         self.cell_tag = np.full(n_local_cells, np.iinfo(np.int32).min, dtype=np.int64)
         self.cell_tag[cell_tags.indices] = cell_tags.values
-        points, triangles, tags, point_of_node = _gather_triangles(mesh, self.cell_tag, self.comm)
+        points, cells, tags, point_of_node = _gather_cells(mesh, self.cell_tag, self.comm)
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
         check_materials(tags, materials)
-        self._output_mesh = PolygonMesh(points, triangles, tags, insert_hanging_nodes=False)
+        self._output_mesh = PolygonMesh(points, cells, tags, insert_hanging_nodes=False)
         self.materials = dict(sorted(materials.items()))
 
         self.V = _compat.vector_function_space(mesh, 2)
@@ -171,18 +219,20 @@ class P2Discretization:
 
     # ------------------------------------------------------------------ set-up
     def _number_nodes(self, point_of_node: np.ndarray) -> None:
-        """Coordinates, output point and partition-independent key of every local P2 node."""
+        """Coordinates, output point and partition-independent key of every local node."""
         im = self.V.dofmap.index_map
         n_nodes = im.size_local + im.num_ghosts
-        p2 = _compat.cell_dofs(self.V)
+        dofs = _compat.cell_dofs(self.V)
         vertex_point = point_of_node[_compat.cell_geometry_nodes(self.mesh)]
-        n = self._output_mesh.n_points
+        n, n_vertices = self._output_mesh.n_points, vertex_point.shape[1]
         self.node_point = np.full(n_nodes, -1, dtype=np.int64)
-        self.node_point[p2[:, :3]] = vertex_point
+        self.node_point[dofs[:, :n_vertices]] = vertex_point
         self.node_key = self.node_point.copy()
-        for k, (a, b) in enumerate(_EDGE_VERTICES):
+        for k, (a, b) in enumerate(_EDGE_VERTICES[n_vertices]):
             ends = np.sort(vertex_point[:, [a, b]], axis=1)
-            self.node_key[p2[:, 3 + k]] = n + ends[:, 0] * n + ends[:, 1]
+            self.node_key[dofs[:, n_vertices + k]] = n + ends[:, 0] * n + ends[:, 1]
+        if dofs.shape[1] > n_vertices + len(_EDGE_VERTICES[n_vertices]):     # Q2 cell centre
+            self.node_key[dofs[:, -1]] = n + n * n + _compat.original_cell_index(self.mesh)
         self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :2].copy()
 
     def _build_forms(self, cell_tags) -> None:
@@ -202,7 +252,7 @@ class P2Discretization:
         self._energy_form = dolfinx.fem.form(Pi)
         self._residual_form = dolfinx.fem.form(residual)
         self._tangent_form = dolfinx.fem.form(ufl.derivative(residual, u, du))
-        points, _ = _compat.triangle_quadrature(q)
+        points, _ = _compat.reference_quadrature(mesh, q)
         self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, points)
         self._owned_cells = np.arange(_compat.num_owned_cells(mesh), dtype=np.int32)
         self._cell_input_index = _compat.original_cell_index(mesh)
@@ -257,12 +307,13 @@ class P2Discretization:
     @classmethod
     def from_polygon_mesh(cls, mesh: PolygonMesh, materials: typing.Mapping[int, Energy],
                           comm: MPI.Comm = MPI.COMM_WORLD, *, fem_h: float | None = None,
-                          quadrature_degree: int = QUADRATURE_DEGREE, jump_penalty: float | None = None,
-                          verbose: bool = True) -> "P2Discretization":
-        """The P2 discretization of the geometry and regions of a polygon mesh.
+                          fem_mesh: PolygonMesh | None = None, quadrature_degree: int = QUADRATURE_DEGREE,
+                          jump_penalty: float | None = None, verbose: bool = True) -> "P2Discretization":
+        """The degree-2 FEM discretization of the geometry and regions of a polygon mesh.
 
-        The regions are meshed again with triangles (:func:`~dolfinx_sfvem.remesh.triangulate`,
-        on rank 0) keeping every boundary/interface vertex of ``mesh``.
+        By default the regions are meshed again with triangles
+        (:func:`~dolfinx_sfvem.remesh.triangulate`, on rank 0) keeping every
+        boundary/interface vertex of ``mesh``.
 
         Parameters
         ----------
@@ -270,28 +321,36 @@ class P2Discretization:
             Triangle size. None: the size at which the P2 unknowns match the SFVEM unknowns
             of ``mesh`` within 5 % (:func:`~dolfinx_sfvem.remesh.matched_triangulation`),
             i.e. a comparison at matched DOFs.
+        fem_mesh
+            The FEM's own mesh of the same regions instead: its polygons, all triangles (P2)
+            or all parallelograms (Q2), are the cells (e.g. :func:`~dolfinx_sfvem.meshes.cbox_grid`).
+            Its region areas must equal those of ``mesh``.
         jump_penalty
             η of the optional interior-penalty terms (class docstring).
         """
-        h, tri, error = None, None, None
+        if fem_mesh is not None and fem_h is not None:
+            raise ValueError("give fem_h (a triangulation of the polygon mesh) or fem_mesh, not both")
+        result, error = None, None
         if comm.rank == 0:
             try:
-                h, tri = matched_triangulation(mesh) if fem_h is None else (float(fem_h), triangulate(mesh, fem_h))
+                result = _fem_cells(mesh, fem_h, fem_mesh)
             except ValueError as err:       # raised on every rank, not only where gmsh ran
                 error = err
-        h, tri, error = comm.bcast((h, tri, error), root=0)
+        result, error = comm.bcast((result, error), root=0)
         if error is not None:
             raise ValueError(str(error))
-        cells, x = (tri.triangles, tri.points) if comm.rank == 0 else (np.empty((0, 3), np.int64), np.empty((0, 2)))
-        dmesh = _compat.create_triangle_mesh_partitioned(comm, cells, x,
-                                                         ghost_facet_neighbours=jump_penalty is not None)
-        cell_tags = _compat.create_cell_tags(dmesh, tri.tags[_compat.original_cell_index(dmesh)])
+        h, points, cells, tags = result
+        cells_here, x = (cells, points) if comm.rank == 0 else (np.empty((0, cells.shape[1]), np.int64), np.empty((0, 2)))
+        dmesh = _compat.create_mesh_partitioned(comm, cells_here, x, ghost_facet_neighbours=jump_penalty is not None)
+        cell_tags = _compat.create_cell_tags(dmesh, tags[_compat.original_cell_index(dmesh)])
         disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
                    jump_penalty=jump_penalty)
         if verbose and comm.rank == 0:
-            matched = "chosen to match" if fem_h is None else "given; SFVEM would have"
-            print(f"P2 FEM: {tri.triangles.shape[0]} triangles, h = {h:.4g} ({matched} "
-                  f"{sfvem_unknowns(mesh)} SFVEM unknowns), {p2_unknowns(tri.triangles)} unknowns on "
+            kind = {3: "P2 FEM", 4: "Q2 FEM"}[cells.shape[1]]
+            size = "own mesh" if fem_mesh is not None else \
+                ("chosen to match" if fem_h is None else "given; SFVEM would have")
+            print(f"{kind}: {cells.shape[0]} cells, h = {h:.4g} ({size}; "
+                  f"{sfvem_unknowns(mesh)} SFVEM unknowns), {disc.num_dofs_global} unknowns on "
                   f"{comm.size} rank(s), quadrature degree {disc.quadrature_degree}", flush=True)
         return disc
 
@@ -364,7 +423,7 @@ class P2Discretization:
 
         ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
         """
-        points, weights = _compat.triangle_quadrature(ERROR_QUADRATURE_DEGREE)
+        points, weights = _compat.reference_quadrature(self.mesh, ERROR_QUADRATURE_DEGREE)
         if self._error_terms is None:
             X = ufl.SpatialCoordinate(self.mesh)
             terms = [X[0], X[1], self.u[0], self.u[1]] + [ufl.grad(self.u)[i, j] for i in (0, 1) for j in (0, 1)]
@@ -430,7 +489,8 @@ class P2Discretization:
         """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2)).
 
         Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
-        ``n_points + a n_points + b`` for the edge's points ``a < b``.
+        ``n_points + a n_points + b`` for the edge's points ``a < b``; of a Q2 cell-centre
+        node: ``n_points + n_points² + c`` for the input index ``c`` of its cell.
         """
         n_owned = self.V.dofmap.index_map.size_local
         with x.localForm() as xl:
@@ -445,7 +505,7 @@ class P2Discretization:
     # ------------------------------------------------------------------ output
     @property
     def output_mesh(self) -> PolygonMesh:
-        """The triangles as a polygon mesh (identical on all ranks), for pictures."""
+        """The cells as a polygon mesh (identical on all ranks), for pictures."""
         return self._output_mesh
 
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
@@ -467,5 +527,6 @@ class P2Discretization:
 
     def describe(self) -> dict:
         """Mesh facts for summary.json."""
-        return {"triangles": int(self._output_mesh.n_polygons), "quadrature_degree": self.quadrature_degree,
+        return {"cells": int(self._output_mesh.n_polygons), "cell_type": self.mesh.topology.cell_type.name,
+                "quadrature_degree": self.quadrature_degree,
                 "mesh_size": self.mesh_size, "jump_penalty": self.jump_penalty}

@@ -6,9 +6,11 @@
 - Identity rows for constrained unknowns, columns kept (the convention of vem.py).
 - Through ContactProblem(method="fem"): a homogeneous uniaxial-stress deformation is
   reproduced exactly and the reaction equals the exact traction resultant P(F)·N·H.
-- Manufactured small-strain solution: L2 error ~ h^3, H1 error ~ h^2.
+- Manufactured small-strain solution: L2 error ~ h^3, H1 error ~ h^2, for P2 and Q2.
+- Q2 on a given quadrilateral mesh (``fem_mesh``): node keys, and the checks of bad meshes.
 - Known limitation (expected failure): on the C-box the P2 medium folds around the beam tips,
-  solid vertices end inside medium triangles; the SFVEM passes the same check.
+  solid vertices end inside medium triangles; the SFVEM and Q2 on the C-box grid pass the same
+  check.
 """
 import json
 import pathlib
@@ -75,13 +77,20 @@ def residual_at(disc, x, d, eps):
     return b, info.energy
 
 
+def cells_of(kind: str) -> dict:
+    """from_polygon_mesh options of two_regions(): P2 on a triangulation, or Q2 on its own quads."""
+    return {"fem_h": 0.35} if kind == "triangles" else {"fem_mesh": two_regions()}
+
+
 @pytest.mark.mpi
-@pytest.mark.parametrize("regularization, beta, jump_penalty",
-                         [(r, b, None) for r in sorted(REGULARIZATIONS) for b in (None, 5.0)]
-                         + [("rotation", None, 40.0), ("huhu_lulu", 5.0, 40.0)])
-def test_tangent_and_residual_match_finite_differences(regularization, beta, jump_penalty):
+@pytest.mark.parametrize("regularization, beta, jump_penalty, cells",
+                         [(r, b, None, "triangles") for r in sorted(REGULARIZATIONS) for b in (None, 5.0)]
+                         + [("rotation", None, 40.0, "triangles"), ("huhu_lulu", 5.0, 40.0, "triangles"),
+                            ("rotation", None, None, "quads"), ("huhu_lulu", 5.0, None, "quads"),
+                            ("rotation", None, 40.0, "quads")])
+def test_tangent_and_residual_match_finite_differences(regularization, beta, jump_penalty, cells):
     disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium(regularization, beta)},
-                                              fem_h=0.35, jump_penalty=jump_penalty, verbose=False)
+                                              jump_penalty=jump_penalty, verbose=False, **cells_of(cells))
     x, d = state(disc), direction(disc)
     b, _ = residual_at(disc, x, d, 0.0)
     A = disc.create_matrix()
@@ -190,7 +199,8 @@ def test_contact_problem_with_fem_reproduces_homogeneous_deformation(tmp_path):
     assert np.allclose(result.steps[-1]["reaction"]["right"], P[:, 0] * H, rtol=1e-9, atol=1e-12)
     if comm.rank == 0:
         summary = json.loads((out / "summary.json").read_text())
-        assert summary["method"] == "fem" and summary["triangles"] == problem.disc.output_mesh.n_polygons
+        assert summary["method"] == "fem" and summary["cells"] == problem.disc.output_mesh.n_polygons
+        assert summary["cell_type"] == "triangle"
         assert summary["dofs"] == p2_unknowns(problem.disc.output_mesh.vertices.reshape(-1, 3))
         assert (out / "deformed.png").is_file()
     u = problem.point_displacements()
@@ -238,17 +248,20 @@ def solid_vertices_inside_medium(problem: sf.ContactProblem) -> int:
 
 @pytest.mark.parametrize("method, options", [("vem", {}), pytest.param("fem", {}, marks=pytest.mark.xfail(
     strict=True, reason="P2 with the cell-wise second gradient: the medium folds around the beam tips "
-                        "(fem.py, known limitation)")), ("fem", {"jump_penalty": 40.0})])
+                        "(fem.py, known limitation)")), ("fem", {"jump_penalty": 40.0}), ("fem", {"fem_mesh": "grid"})])
 def test_cbox_medium_keeps_the_beams_apart(method, options):
-    """C-box (paper §5.2: rotation, gamma 1e-5, alpha_r 1) at u_y = -0.3 in 15 steps, the FEM on
-    the matched mesh (3138 unknowns): no solid vertex lies inside a deformed medium cell.
+    """C-box (paper §5.2: rotation, gamma 1e-5, alpha_r 1) at u_y = -0.3 in 15 steps, the P2 FEM
+    on the matched mesh (3138 unknowns): no solid vertex lies inside a deformed medium cell.
 
     The P2 FEM fails this from u_y = -0.25 on (10 vertices at -0.3): the medium folds around
     the beam tips, and at u_y = -0.3376 its load path ends at a limit point, the stall of
-    ``demos/cbox.py --method fem --uy -0.5 --steps 25`` at load factor 0.675. The check takes
-    seconds where the stall took a 25-step run, and it names the cause (a valid medium, not a
-    Newton tolerance). With the interior-penalty terms (eta = 40) the FEM medium holds."""
+    ``demos/cbox.py --method fem --fem-cells triangles --uy -0.5 --steps 25`` at load factor
+    0.675. The check takes seconds where the stall took a 25-step run, and it names the cause
+    (a valid medium, not a Newton tolerance). With the interior-penalty terms (eta = 40) the P2
+    medium holds, and so does Q2 on the C-box grid (the demo's default FEM)."""
     box = sf.meshes.cbox(h_solid=0.05)
+    if options.get("fem_mesh") == "grid":
+        options = {"fem_mesh": sf.meshes.cbox_grid(h_solid=0.05).mesh}
     problem = sf.ContactProblem(box.mesh, {
         sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14),
         sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0, regularization="rotation")},
@@ -261,11 +274,13 @@ def test_cbox_medium_keeps_the_beams_apart(method, options):
     assert solid_vertices_inside_medium(problem) == 0
 
 
-def solve_errors_fem(h, comm=MPI.COMM_WORLD):
-    """(h, L2 error, H1 error) of the P2 solution of test_convergence's problem on triangles of size h."""
+def solve_errors_fem(h, comm=MPI.COMM_WORLD, quads=False):
+    """(h, L2 error, H1 error) of the FEM solution of test_convergence's problem: P2 on triangles of
+    size h, or Q2 on squares of size h (``quads``)."""
     square = sf.meshes.quad_rectangle(1.0, 1.0, 1, 1)
     energy = sf.UserEnergy(small_strain, uses_gradient=False, lam=LAM, mu=MU)
-    problem = sf.ContactProblem(square, {0: energy}, method="fem", fem_h=h, comm=comm, verbose=False)
+    cells = {"fem_mesh": sf.meshes.quad_rectangle(1.0, 1.0, round(1 / h), round(1 / h))} if quads else {"fem_h": h}
+    problem = sf.ContactProblem(square, {0: energy}, method="fem", comm=comm, verbose=False, **cells)
     problem.fix(on_boundary)
     problem.body_force(body_force)
     assert problem.solve(steps=1).converged
@@ -273,9 +288,56 @@ def solve_errors_fem(h, comm=MPI.COMM_WORLD):
 
 
 @pytest.mark.mpi
-def test_manufactured_solution_rates():
-    results = [solve_errors_fem(h) for h in (0.2, 0.1, 0.05)]
+@pytest.mark.parametrize("quads", [False, True])
+def test_manufactured_solution_rates(quads):
+    results = [solve_errors_fem(h, quads=quads) for h in (0.2, 0.1, 0.05)]
     rate_L2, rate_H1 = rates(results)
     assert 2.7 <= rate_L2 <= 3.5, (rate_L2, results)
     assert 1.8 <= rate_H1 <= 2.4, (rate_H1, results)
     assert results[-1][1] < 1e-3 * AMPLITUDE and results[-1][2] < 1e-2 * AMPLITUDE
+
+
+@pytest.mark.mpi
+def test_q2_node_keys_are_unique_and_name_their_place():
+    """Q2 on a quadrilateral fem_mesh: one key per node over all ranks; a vertex node keys its
+    output point, an edge node the midpoint of its two points, a centre node its cell."""
+    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+                                              fem_mesh=sf.meshes.glue(
+                                                  sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, tag=1),
+                                                  sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, origin=(1.0, 0.0), tag=2)),
+                                              verbose=False)
+    assert disc.describe()["cell_type"] == "quadrilateral" and disc.describe()["cells"] == 12
+    assert disc.num_dofs_global == 2 * 9 * 7
+    keys = np.concatenate(MPI.COMM_WORLD.allgather(disc.node_key[:disc.V.dofmap.index_map.size_local]))
+    assert np.unique(keys).size == keys.size == disc.num_dofs_global // 2
+    points, n = disc.output_mesh.points, disc.output_mesh.n_points
+    vertex, centre = disc.node_key < n, disc.node_key >= n + n * n
+    edge = ~vertex & ~centre
+    assert np.allclose(disc.x_nodes[vertex], points[disc.node_key[vertex]])
+    a, b = np.divmod(disc.node_key[edge] - n, n)
+    assert np.allclose(disc.x_nodes[edge], 0.5 * (points[a] + points[b]))
+    cell = disc.node_key[centre] - n - n * n
+    assert np.allclose(disc.x_nodes[centre], disc.output_mesh.centroids[cell])
+
+
+def skewed_quads() -> sf.PolygonMesh:
+    """[0, 2] x [0, 1] in two quadrilaterals, the shared side slanted: not parallelograms."""
+    return sf.PolygonMesh([(0, 0), (1, 0), (2, 0), (0, 1), (1.2, 1), (2, 1)], [[0, 1, 4, 3], [1, 2, 5, 4]], [1, 1])
+
+
+@pytest.mark.parametrize("mesh, fem_mesh, message", [
+    (lambda: sf.meshes.cbox(h_solid=0.1).mesh, lambda: sf.meshes.cbox(h_solid=0.1).mesh,
+     "all triangles or all quadrilaterals"),
+    (lambda: sf.meshes.cbox(h_solid=0.1).mesh, lambda: sf.meshes.cbox_grid(h_solid=0.05).mesh, "region 2 has area"),
+    (lambda: sf.meshes.quad_rectangle(2.0, 1.0, 2, 1, tag=1), skewed_quads, "quadrilateral 0 is not a parallelogram"),
+])
+def test_fem_mesh_is_checked(mesh, fem_mesh, message):
+    with pytest.raises(ValueError, match=message):
+        P2Discretization.from_polygon_mesh(mesh(), {1: SOLID, 2: medium("rotation", None)}, fem_mesh=fem_mesh(),
+                                           verbose=False)
+
+
+def test_fem_h_and_fem_mesh_exclude_each_other():
+    with pytest.raises(ValueError, match="not both"):
+        P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
+                                           fem_mesh=two_regions(), verbose=False)
