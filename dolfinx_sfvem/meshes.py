@@ -677,6 +677,23 @@ def _solid_with_quad_medium(solid_loops: Sequence[npt.ArrayLike], h: float, xs: 
                 _quad_grid(xs, ys, MEDIUM, medium))
 
 
+#: C-box of paper §5.2: length, wall thickness, height
+_CBOX_L, _CBOX_T, _CBOX_H = 1.0, 0.1, 0.5
+
+
+def _cbox_benchmark(mesh: PolygonMesh) -> Benchmark:
+    """The C-box's regions, named points and segments around ``mesh``."""
+    L, t, H = _CBOX_L, _CBOX_T, _CBOX_H
+    return Benchmark(mesh, {"solid": SOLID, "medium": MEDIUM},
+                     {"load": (L, H), "gap_top": (L, H - t), "gap_bottom": (L, t)},
+                     {"fixed": ((0.0, 0.0), (0.0, H))})
+
+
+def _cbox_medium(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+    """Whether the points (cx, cy) of the C-box's bounding grid lie in the medium."""
+    return (cx > _CBOX_L) | ((cx > _CBOX_T) & (cy > _CBOX_T) & (cy < _CBOX_H - _CBOX_T))
+
+
 def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
     """C-box of paper §5.2 (Bluhm et al. 2021) with a quadrilateral third medium.
 
@@ -700,20 +717,31 @@ def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.
 
     ``keep_gmsh``: write the solid's gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
+    xs, ys = _cbox_axes(h_solid, medium_refinement)
+    L, t, H = _CBOX_L, _CBOX_T, _CBOX_H
+    outline = [(0, 0), (L, 0), (L, t), (t, t), (t, H - t), (L, H - t), (L, H), (0, H)]
+    mesh = _solid_with_quad_medium([outline], h_solid, xs[xs >= t - 1e-12], ys, _cbox_medium, keep_gmsh)
+    return _cbox_benchmark(mesh)
+
+
+def cbox_grid(h_solid: float = 0.05, medium_refinement: int = 1) -> Benchmark:
+    """The C-box of :func:`cbox` (same geometry, column width ``h_solid``) meshed entirely
+    by its medium grid: rectangles of size ``h_solid / medium_refinement``, solid included,
+    no hanging nodes. The mesh for degree-2 Lagrange FEM on quadrilaterals (Q2), see
+    :meth:`~dolfinx_sfvem.fem.P2Discretization.from_polygon_mesh` with ``fem_mesh``.
+    """
+    xs, ys = _cbox_axes(h_solid, medium_refinement)
+    return _cbox_benchmark(glue(_quad_grid(xs, ys, SOLID, lambda cx, cy: ~_cbox_medium(cx, cy)),
+                                _quad_grid(xs, ys, MEDIUM, _cbox_medium)))
+
+
+def _cbox_axes(h_solid: float, medium_refinement: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grid lines of the C-box's bounding box [0, 1 + h_solid] x [0, 0.5] (the medium's quads)."""
     if int(medium_refinement) != medium_refinement or medium_refinement < 1:
         raise ValueError(f"medium_refinement must be a positive integer, got {medium_refinement!r}")
-    L, t, H = 1.0, 0.1, 0.5
-    outline = [(0, 0), (L, 0), (L, t), (t, t), (t, H - t), (L, H - t), (L, H), (0, H)]
-    xs = _axis_nodes([t, L, L + h_solid], h_solid, medium_refinement)
-    ys = _axis_nodes([0.0, t, H - t, H], h_solid, medium_refinement)
-
-    def medium(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
-        return (cx > L) | ((cy > t) & (cy < H - t))
-
-    mesh = _solid_with_quad_medium([outline], h_solid, xs, ys, medium, keep_gmsh)
-    return Benchmark(mesh, {"solid": SOLID, "medium": MEDIUM},
-                     {"load": (L, H), "gap_top": (L, H - t), "gap_bottom": (L, t)},
-                     {"fixed": ((0.0, 0.0), (0.0, H))})
+    L, t, H = _CBOX_L, _CBOX_T, _CBOX_H
+    return (_axis_nodes([0.0, t, L, L + h_solid], h_solid, medium_refinement),
+            _axis_nodes([0.0, t, H - t, H], h_solid, medium_refinement))
 
 
 def box(mesh: int = 1, h_solid: float = 0.05, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:

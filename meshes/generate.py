@@ -58,6 +58,8 @@ MESHES: dict[str, tuple[str | None, collections.abc.Callable[[str | None], meshe
                   "box_self_contact.py --mesh 3"),
     "cbox-mesh1": ("cbox-solid", lambda keep: meshes.cbox(_default_h(cbox), 1, keep), "cbox.py --mesh 1"),
     "cbox-mesh2": (None, lambda keep: meshes.cbox(_default_h(cbox), 2, keep), "cbox.py --mesh 2"),
+    "cbox-grid1": (None, lambda keep: meshes.cbox_grid(_default_h(cbox), 1), "cbox.py --method fem --mesh 1"),
+    "cbox-grid2": (None, lambda keep: meshes.cbox_grid(_default_h(cbox), 2), "cbox.py --method fem --mesh 2"),
     "punch": ("punch", lambda keep: meshes.punch(_default_h(punch), punch.GAP, keep), "punch.py"),
     "multi_object": ("multi_object", lambda keep: meshes.multi_object(_default_h(multi_object), multi_object.GAP,
                                                                       keep), "multi_object.py"),

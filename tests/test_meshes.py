@@ -204,6 +204,27 @@ def test_cbox_refinement_keeps_solid(cboxes):
     assert cboxes[2].mesh.n_polygons > cboxes[1].mesh.n_polygons
 
 
+@pytest.mark.parametrize("r", [1, 2])
+def test_cbox_grid_is_the_medium_grid_through_the_solid(cboxes, r):
+    """The FEM's quadrilateral C-box: the same regions as cbox(), rectangles only, and the
+    medium cells are exactly cbox()'s medium quads."""
+    grid = meshes.cbox_grid(h_solid=0.05, medium_refinement=r)
+    mesh = grid.mesh
+    assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + 0.05 * 0.5})
+    assert_polygons_in(mesh, SOLID, CBOX_SOLID)
+    assert np.all(np.diff(mesh.offsets) == 4) and meshes.t_junctions(mesh).size == 0
+    x = mesh.points[mesh.vertices.reshape(-1, 4)]
+    assert np.allclose(x[:, 0] + x[:, 2], x[:, 1] + x[:, 3], rtol=0, atol=1e-14)         # parallelograms
+    h = 0.05 / r
+    assert np.allclose(np.abs(x[:, 2] - x[:, 0]), h, rtol=1e-9)
+    ours, theirs = (m.centroids[m.tags == MEDIUM] for m in (mesh, cboxes[r].mesh))
+    distance = np.linalg.norm(ours[:, None, :] - theirs[None, :, :], axis=2)
+    assert ours.shape == theirs.shape and np.all(distance.min(axis=1) < 1e-12)
+    assert grid.points == cboxes[r].points and grid.segments == cboxes[r].segments
+    for name in grid.points:
+        grid.vertex(name)
+
+
 @pytest.mark.parametrize("m", [1, 2, 3])
 def test_box(boxes, m):
     bench = boxes[m]
