@@ -17,6 +17,13 @@ missing, so the column width and the mesh sizes are our choice. Solid: polygons 
 gmsh triangle mesh of size ``--h``); medium: quadrilaterals of size h (``--mesh 1``) or
 h/2 (``--mesh 2``) joined to the unchanged solid mesh through hanging nodes.
 
+FEM reference (``--method fem``): by default Q2, degree-2 Lagrange on quadrilaterals, on
+``dolfinx_sfvem.meshes.cbox_grid``: the medium's grid continued through the solid, the same
+geometry in rectangles of size h (``--mesh 1``, 1806 unknowns at h = 0.05) or h/2
+(``--mesh 2``, 6970). ``--fem-cells triangles`` gives P2 on a triangulation with about the
+SFVEM's unknowns instead; there the medium folds around the beam tips and the load path ends
+at a limit point before full load (``dolfinx_sfvem/fem.py``, known limitation).
+
 Parameters
 ----------
 Solid: K = 5/3, mu = 5/14 (paper Eq. 2). Medium (Eq. 59): mu = 5/14, K = 0, gamma = 1e-5,
@@ -59,6 +66,8 @@ import _common as common
 K, MU = 5 / 3, 5 / 14
 #: wall thickness: the largest mesh size that still resolves the beams
 T = 0.1
+#: cells of the FEM reference (``--fem-cells``), the default first
+FEM_CELLS = ("quads", "triangles")
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -68,6 +77,10 @@ def make_parser() -> argparse.ArgumentParser:
                       mesh_help="medium density: 1 = quads of size h, 2 = h/2 (solid unchanged)")
     p.add_argument("--uy", type=common.finite_float, default=-0.5,
                    help="vertical displacement of the top right point (default %(default)s)")
+    p.add_argument("--fem-cells", choices=FEM_CELLS, default=None,
+                   help="--method fem only: quads = Q2 on the medium's grid continued through the solid "
+                        "(default), triangles = P2 on a triangulation with about the SFVEM's unknowns "
+                        "(its medium folds, dolfinx_sfvem/fem.py)")
     return p
 
 
@@ -87,9 +100,11 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
         ``tip_ux``, ``tip_uy``: displacement of the top right point, recorded per step.
     """
     box = sf.meshes.cbox(h_solid=args.h, medium_refinement=args.mesh)
+    options = common.discretization(args)
+    if args.method == "fem" and (args.fem_cells or FEM_CELLS[0]) == "quads":
+        options["fem_mesh"] = sf.meshes.cbox_grid(h_solid=args.h, medium_refinement=args.mesh).mesh
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
-                                           sf.meshes.MEDIUM: common.third_medium(args, mu=MU)},
-                                **common.discretization(args))
+                                           sf.meshes.MEDIUM: common.third_medium(args, mu=MU)}, **options)
     problem.fix(common.on_segment(*box.segments["fixed"]))
     tip = common.at_point(box.points["load"])
     problem.prescribe(tip, uy=args.uy, name="load")
@@ -100,7 +115,10 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build and solve; returns the exit code (0 or 1)."""
-    args = common.parse_args(make_parser(), argv)
+    parser = make_parser()
+    args = common.parse_args(parser, argv)
+    if args.fem_cells is not None and args.method != "fem":
+        parser.error("--fem-cells needs --method fem")
     problem, observers = build(args)
     return common.run(problem, args, observers)
 

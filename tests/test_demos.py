@@ -72,6 +72,8 @@ def test_cbox_outputs(tmp_path):
     (["--stepz", "3"], "unrecognized argument '--stepz'"),
     (["--fem-jump-penalty", "40"], "--fem-jump-penalty needs --method fem"),
     (["--method", "fem", "--fem-jump-penalty", "0"], "argument --fem-jump-penalty: must be a number > 0"),
+    (["--fem-cells", "triangles"], "--fem-cells needs --method fem"),
+    (["--method", "fem", "--fem-cells", "hexagons"], "argument --fem-cells: invalid choice"),
 ])
 def test_cbox_rejects_bad_input(tmp_path, args, message):
     proc = run_demo("cbox", *args, out=tmp_path)
@@ -117,3 +119,14 @@ def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["converged"] and summary["method"] == "fem"
     assert summary["jump_penalty"] == 40.0 and summary["parameters"]["fem_jump_penalty"] == 40.0
+
+
+@pytest.mark.parametrize("cells, cell_type", [(None, "quadrilateral"), ("triangles", "triangle")])
+def test_cbox_fem_cells(tmp_path, cells, cell_type):
+    """The C-box FEM is Q2 on cbox_grid by default, P2 on a matched triangulation on request."""
+    proc = run_demo("cbox", *SMALL, "--method", "fem", *(["--fem-cells", cells] if cells else []), out=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["converged"] and summary["cell_type"] == cell_type
+    if cells is None:                     # h = 0.1: 11 x 5 rectangles, (2 * 11 + 1) (2 * 5 + 1) nodes
+        assert summary["cells"] == 55 and summary["dofs"] == 2 * 23 * 11
