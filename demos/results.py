@@ -922,13 +922,13 @@ ANALYSED_STOPS = [
 
 #: analysed causes of SFVEM vs FEM force differences above METHOD_TOLERANCE, by example key
 ANALYSED_METHOD_DIFFERENCES = {
-    "box": "not found yet (**TODO (maintainers)**); measured (mesh 1, gamma = 1e-5, final force): it is not the regularization "
-           "(alpha_r = 0: SFVEM 0.04953, FEM 0.05257, +6.1 %), not the FEM element (Q2 on a grid of the "
-           "box: 0.05295), not the SFVEM medium mesh (meshes 1 / 2 / 3: 0.04956 / 0.04955 / 0.04943); it "
-           "builds up once the flanges touch (FEM vs SFVEM at load 0.25 / 0.5 / 0.75 / 1: -1.4 / +0.1 / "
-           "+1.4 / +6.1 %) and shrinks slowly with the solid mesh (h = 0.025, 21586 / 22106 unknowns: "
-           "0.04929 vs 0.05189, +5.3 %); spreading the three point conditions over short segments widens "
-           "it (+12.9 %)",
+    "box": "not found yet (**TODO (maintainers)**); measured (mesh 1, gamma = 1e-5, final force): it is "
+           "not the regularization (alpha_r = 0: SFVEM 0.04953, FEM 0.05257, +6.1 %), not the FEM element "
+           "(Q2 on a grid of the box: 0.05295), not the SFVEM medium mesh (meshes 1 / 2 / 3: 0.04956 / "
+           "0.04955 / 0.04943); it builds up once the flanges touch (FEM vs SFVEM at load 0.25 / 0.5 / 0.75 / "
+           "1: -1.4 / +0.1 / +1.4 / +6.1 %) and shrinks slowly with the solid mesh (h = 0.025, 21586 / 22106 "
+           "unknowns: 0.04929 vs 0.05189, +5.3 %); spreading the three point conditions over short segments "
+           "widens it (+12.9 %)",
     "multi": "the P2 FEM hardly feels the regularization. Before contact (BC 1, u_y = -0.03, h = 0.04) "
              "alpha_r = 0 / 1 / 10 give FEM forces 6.189e-4 / 6.212e-4 / 6.213e-4 and SFVEM forces "
              "6.189e-4 / 7.832e-4 / 1.221e-3; with alpha_r = 10, refining to h = 0.028 and 0.02 leaves the "

@@ -1,7 +1,8 @@
 """Degree-2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
 
-P2 on triangles, either a triangulation of the polygon mesh's regions (the default) or a
-given triangle mesh; Q2 on a given mesh of parallelograms (``fem_mesh``). The total energy (paper Eq. 46 with the FEM interpolation in place of the projections)
+P2 on triangles, a triangulation of the polygon mesh's regions by default; or the cells of a
+given mesh (``fem_mesh``): P2 on its triangles, Q2 on its parallelograms. The total energy
+(paper Eq. 46 with the FEM interpolation in place of the projections)
 
     Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
 
@@ -134,9 +135,9 @@ def _gather_cells(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
              mesh.geometry.x[geometry[:n_owned], :2], cell_tag[:n_owned])
     cell, nodes, x, tags = (np.concatenate(part) for part in zip(*comm.allgather(local)))
     inputs, first, cells = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
-    n_vertices = geometry.shape[1]
-    cells = cells.reshape(-1, n_vertices)[np.argsort(cell)][:, _compat.COUNTER_CLOCKWISE[n_vertices]]
-    return x.reshape(-1, 2)[first], cells.astype(np.int64), tags[np.argsort(cell)], np.searchsorted(inputs, inp)
+    n_vertices, order = geometry.shape[1], np.argsort(cell)
+    cells = cells.reshape(-1, n_vertices)[order][:, _compat.COUNTER_CLOCKWISE[n_vertices]]
+    return x.reshape(-1, 2)[first], cells.astype(np.int64), tags[order], np.searchsorted(inputs, inp)
 
 
 def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | None
@@ -340,18 +341,19 @@ class P2Discretization:
         if error is not None:
             raise ValueError(str(error))
         h, points, cells, tags = result
-        cells_here, x = (cells, points) if comm.rank == 0 else (np.empty((0, cells.shape[1]), np.int64), np.empty((0, 2)))
-        dmesh = _compat.create_mesh_partitioned(comm, cells_here, x, ghost_facet_neighbours=jump_penalty is not None)
+        if comm.rank != 0:                  # rank 0 holds the input mesh, DOLFINx distributes it
+            cells, points = np.empty((0, cells.shape[1]), np.int64), np.empty((0, 2))
+        dmesh = _compat.create_mesh_partitioned(comm, cells, points, ghost_facet_neighbours=jump_penalty is not None)
         cell_tags = _compat.create_cell_tags(dmesh, tags[_compat.original_cell_index(dmesh)])
         disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
                    jump_penalty=jump_penalty)
         if verbose and comm.rank == 0:
             kind = {3: "P2 FEM", 4: "Q2 FEM"}[cells.shape[1]]
-            size = "own mesh" if fem_mesh is not None else \
+            origin = "own mesh; SFVEM:" if fem_mesh is not None else \
                 ("chosen to match" if fem_h is None else "given; SFVEM would have")
-            print(f"{kind}: {cells.shape[0]} cells, h = {h:.4g} ({size}; "
-                  f"{sfvem_unknowns(mesh)} SFVEM unknowns), {disc.num_dofs_global} unknowns on "
-                  f"{comm.size} rank(s), quadrature degree {disc.quadrature_degree}", flush=True)
+            print(f"{kind}: {cells.shape[0]} cells, h = {h:.4g} ({origin} {sfvem_unknowns(mesh)} SFVEM "
+                  f"unknowns), {disc.num_dofs_global} unknowns on {comm.size} rank(s), quadrature degree "
+                  f"{disc.quadrature_degree}", flush=True)
         return disc
 
     # ------------------------------------------------------------------ PETSc objects

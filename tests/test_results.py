@@ -187,7 +187,7 @@ def test_restart_decisions(tmp_path):
 
 
 def test_stops_are_sorted_by_their_analysed_cause():
-    mesh3 = ["box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh3", "box-table2/huhu_lulu-beta5/alpha_r10-gamma1e-04-mesh3"]
+    mesh3 = [f"box-table2/huhu_lulu-beta5/{run}-mesh3" for run in ("alpha_r1-gamma1e-06", "alpha_r10-gamma1e-04")]
     explained, unexplained = results.explain_stops(
         ["cbox-mesh1-fem", mesh3[0], "box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh2", mesh3[1],
          "punch-rigid-vem"])
