@@ -91,7 +91,11 @@ on mesh 3. Their gaps, with the paper's scaled values in brackets:
 A higher projection order in the medium (the paper's l = 3) takes alpha_r = 1, gamma = 1e-6
 further but not to the end: l = 4 to load 0.62, l = 5 to 0.72 (l = 4 in the solid only:
 0.31). Splitting the four non-convex solid polygons around the re-entrant corners into
-convex ones: 0.35.
+convex ones: 0.35. Other meshes move the stall but do not remove it (alpha_r = 1 / 10 at
+gamma = 1e-6, which stop at 0.29 / 0.37 on mesh 3): a solid of 0.05 squares in place of the
+dual polygons, 0.73 / 0.60; medium quads of h/4 instead of h/3, 0.45 / 0.53. Up to 200 Newton
+iterations per step (``-snes_max_it 200``, resumed at the stop) do not pass it either: the
+iteration creeps to a residual of 5e-9 and then leaves the domain (J < 0).
 
 Examples::
 
