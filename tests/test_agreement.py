@@ -136,6 +136,13 @@ def test_compare_tool_runs_both_methods_and_tabulates(tmp_path, capsys):
         compare.main(["fake", "--demos", str(demos), "--method", "vem"])
 
 
+def test_compare_tool_sends_fem_options_to_the_fem_run_only():
+    common, fem_only = compare.split_fem_options(["--uy", "-0.5", "--fem-cells", "triangles", "-snes_rtol", "1e-9",
+                                                  "--fem-jump-penalty=40"])
+    assert common == ["--uy", "-0.5", "-snes_rtol", "1e-9"]
+    assert fem_only == ["--fem-cells", "triangles", "--fem-jump-penalty=40"]
+
+
 def test_compare_tool_tabulates_max_displacement(tmp_path):
     """max |u| recorded per step by ContactProblem appears in the table with its relative difference."""
     vem = {"dofs": 10, "converged": True, "wall_time_s": 1.0,
