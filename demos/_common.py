@@ -118,7 +118,8 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
 def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
     """Parse the command line; PETSc options go to PETSc's database and to ``args.petsc_options``.
 
-    Unknown ``--options`` and stray positional arguments are errors (exit code 2).
+    Unknown ``--options``, stray positional arguments and ``--fem-NAME`` options without
+    ``--method fem`` are errors (exit code 2).
     """
     args, rest = p.parse_known_args(argv)
     for k, token in enumerate(rest):
@@ -126,8 +127,10 @@ def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = N
             p.error(f"unrecognized argument {token!r} (PETSc options start with a single '-')")
         if not _is_option_name(token) and (k == 0 or not _is_option_name(rest[k - 1])):
             p.error(f"unexpected argument {token!r} (not the value of a PETSc option)")
-    if args.fem_jump_penalty is not None and args.method != "fem":
-        p.error("--fem-jump-penalty needs --method fem")
+    if args.method != "fem":                         # every --fem-NAME option a demo defines
+        for name, value in vars(args).items():
+            if name.startswith("fem_") and value is not None:
+                p.error(f"--{name.replace('_', '-')} needs --method fem")
     sf.set_petsc_options(rest)
     args.petsc_options = rest
     if args.resume is not None:

@@ -115,10 +115,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build and solve; returns the exit code (0 or 1)."""
-    parser = make_parser()
-    args = common.parse_args(parser, argv)
-    if args.fem_cells is not None and args.method != "fem":
-        parser.error("--fem-cells needs --method fem")
+    args = common.parse_args(make_parser(), argv)
     problem, observers = build(args)
     return common.run(problem, args, observers)
 
