@@ -11,9 +11,13 @@ Geometry and mesh (``dolfinx_sfvem.meshes.cbox``, see meshes/README.md)
 -----------------------------------------------------------------------
 L = 1, wall thickness t = 0.1, height 0.5, so the initial gap is 0.3: left wall
 [0, 0.1] x [0, 0.5], beams [0, 1] x [0, 0.1] and [0, 1] x [0.4, 0.5]. The medium fills the
-cavity [0.1, 1] x [0.1, 0.4] and a column [1, 1 + h] x [0, 0.5] right of the structure
-(the paper's "column of third medium elements", h = ``--h``). The paper's figures are
-missing, so the column width and the mesh sizes are our choice. Solid: polygons (dual of a
+cavity [0.1, 1] x [0.1, 0.4] and a column [1, 1 + w] x [0, 0.5] right of the structure
+(the paper's "column of third medium elements"), w = ``--column`` = 0.1 by default, the wall
+thickness, whatever the mesh size: ``--h`` refines one problem. The paper's figures are
+missing, so the column width and the mesh sizes are our choice; a column as thin as one small
+element (e.g. ``--column 0.025 --h 0.025``) lets the medium between the beams be dragged out
+sideways until the beams pass through each other, which the run reports as a stop
+("solids overlap", docs/contact.md). Solid: polygons (dual of a
 gmsh triangle mesh of size ``--h``); medium: quadrilaterals of size h (``--mesh 1``) or
 h/2 (``--mesh 2``) joined to the unchanged solid mesh through hanging nodes.
 
@@ -77,6 +81,8 @@ def make_parser() -> argparse.ArgumentParser:
                       mesh_help="medium density: 1 = quads of size h, 2 = h/2 (solid unchanged)")
     p.add_argument("--uy", type=common.finite_float, default=-0.5,
                    help="vertical displacement of the top right point (default %(default)s)")
+    p.add_argument("--column", type=common.positive_float, default=sf.meshes.CBOX_COLUMN,
+                   help="width of the medium column right of the beams (default %(default)s)")
     p.add_argument("--fem-cells", choices=FEM_CELLS, default=None,
                    help="--method fem only: quads = Q2 on the medium's grid continued through the solid "
                         "(default), triangles = P2 on a triangulation with about the SFVEM's unknowns "
@@ -90,7 +96,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     Parameters
     ----------
     args
-        Parsed command line (``--h --mesh --uy`` and the medium options).
+        Parsed command line (``--h --mesh --column --uy`` and the medium options).
 
     Returns
     -------
@@ -99,10 +105,10 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     observers
         ``tip_ux``, ``tip_uy``: displacement of the top right point, recorded per step.
     """
-    box = sf.meshes.cbox(h_solid=args.h, medium_refinement=args.mesh)
+    box = sf.meshes.cbox(h_solid=args.h, medium_refinement=args.mesh, column=args.column)
     options = common.discretization(args)
     if args.method == "fem" and (args.fem_cells or FEM_CELLS[0]) == "quads":
-        options["fem_mesh"] = sf.meshes.cbox_grid(h_solid=args.h, medium_refinement=args.mesh).mesh
+        options["fem_mesh"] = sf.meshes.cbox_grid(h_solid=args.h, medium_refinement=args.mesh, column=args.column).mesh
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
                                            sf.meshes.MEDIUM: common.third_medium(args, mu=MU)}, **options)
     problem.fix(common.on_segment(*box.segments["fixed"]))

@@ -120,9 +120,14 @@ class Energy:
         Current parameter values, in the order of :attr:`param_names`.
     uses_gradient : bool
         False when Psi does not depend on G; then T, A and B vanish and callers skip them.
+    is_medium : bool
+        True for a third medium: its elements may be squeezed flat between solids in
+        contact, and it is not a body whose overlap with others is measured
+        (:mod:`~dolfinx_sfvem.contact`, :mod:`~dolfinx_sfvem.injectivity`).
     """
 
     uses_gradient: bool = True
+    is_medium: bool = False
 
     def __init__(self, params: Mapping[str, float], bounds: Mapping[str, Bound]):
         self._bounds = dict(bounds)
@@ -236,6 +241,8 @@ class ThirdMedium(Energy):
         Bulk modulus; 0 (default) gives Eq. 5.
     """
 
+    is_medium = True
+
     def __init__(self, mu: float, gamma: float, alpha_r: float, regularization: str = "rotation",
                  beta: float | None = None, K: float = 0.0):
         if regularization not in REGULARIZATIONS:
@@ -276,14 +283,17 @@ class UserEnergy(Energy):
         Whether ``psi_fn`` depends on G (checked when the kernels are compiled).
     name
         Name used in messages (default: ``psi_fn.__name__``).
+    medium
+        True if this energy is a third medium (see :attr:`Energy.is_medium`); default False: a solid.
     **params
         Parameter values (finite floats); their names are the keywords of ``psi_fn``.
     """
 
     def __init__(self, psi_fn: Callable[..., Expr], uses_gradient: bool = True, name: str | None = None,
-                 **params: float):
+                 medium: bool = False, **params: float):
         self.psi_fn = psi_fn
         self.uses_gradient = uses_gradient
+        self.is_medium = bool(medium)
         self._name = name or getattr(psi_fn, "__name__", "UserEnergy")
         super().__init__(params, dict.fromkeys(params))
 

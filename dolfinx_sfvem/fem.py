@@ -100,6 +100,7 @@ import dolfinx.la
 from . import _compat, post
 from .energy import Energy
 from .mesh import PolygonMesh
+from .injectivity import folded_elements, gather_folded
 from .remesh import matched_triangulation, sfvem_unknowns, triangulate
 from .vem import AssemblyInfo, check_materials
 
@@ -112,6 +113,22 @@ ERROR_QUADRATURE_DEGREE = 8
 #: the degree-2 dofs n_vertices + k: P2 dof 3 + k sits on the edge opposite vertex k; Q2 dofs
 #: 4..7 on the edges of the tensor-product quadrilateral (its dof 8 is the cell centre)
 _EDGE_VERTICES = {3: ((1, 2), (0, 2), (0, 1)), 4: ((0, 1), (0, 2), (1, 3), (2, 3))}
+#: vertex count -> reference coordinates of the cell's vertices (DOLFINx's local numbering)
+_REFERENCE_VERTICES = {3: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), 4: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0))}
+
+
+def _boundary_loop(n_vertices: int) -> np.ndarray:
+    """Local dofs of a cell's boundary in order: vertex, midpoint of the edge to the next
+    vertex (counter-clockwise on the reference cell), next vertex, ..."""
+    edge_dof = {frozenset(pair): n_vertices + k for k, pair in enumerate(_EDGE_VERTICES[n_vertices])}
+    ring = _compat.COUNTER_CLOCKWISE[n_vertices]
+    return np.array([d for a, b in zip(ring, ring[1:] + ring[:1]) for d in (a, edge_dof[frozenset((a, b))])])
+
+
+def _reference_nodes(n_vertices: int) -> np.ndarray:
+    """Reference coordinates (n_vertices + n_edges, 2) of a cell's vertices and edge midpoints."""
+    vertices = np.array(_REFERENCE_VERTICES[n_vertices])
+    return np.concatenate([vertices, [vertices[list(pair)].mean(axis=0) for pair in _EDGE_VERTICES[n_vertices]]])
 
 
 def _gather_cells(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
@@ -254,8 +271,17 @@ class P2Discretization:
         self._residual_form = dolfinx.fem.form(residual)
         self._tangent_form = dolfinx.fem.form(ufl.derivative(residual, u, du))
         points, _ = _compat.reference_quadrature(mesh, q)
-        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, points)
+        n_vertices = _compat.cell_geometry_nodes(mesh).shape[1]
+        self._n_quadrature_points = points.shape[0]
+        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, np.concatenate([points, _reference_nodes(n_vertices)]))
         self._owned_cells = np.arange(_compat.num_owned_cells(mesh), dtype=np.int32)
+        # injectivity guard: boundary loop of every owned cell, solids also checked for crossings
+        dofs = _compat.cell_dofs(self.V)[:self._owned_cells.size]
+        loop = _boundary_loop(n_vertices)
+        self._loop = dofs[:, loop].astype(np.int64).ravel()
+        self._loop_offsets = np.arange(0, self._loop.size + 1, loop.size, dtype=np.int64)
+        self._solid = np.isin(self.cell_tag[self._owned_cells],
+                              [tag for tag, energy in self.materials.items() if not energy.is_medium])
         self._cell_input_index = _compat.original_cell_index(mesh)
         self._error_terms = None
 
@@ -377,13 +403,19 @@ class P2Discretization:
         dolfinx.fem.petsc.assemble_vector(b, self._residual_form)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         energy = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._energy_form), op=MPI.SUM)
-        J = self._det_F(self._owned_cells)[:, :, 0]
+        J_all = self._det_F(self._owned_cells)[:, :, 0]
+        J, J_nodes = J_all[:, :self._n_quadrature_points], J_all[:, self._n_quadrature_points:]
         cell = int(np.argmin(J.min(axis=1))) if J.size else -1
         local_min = float(J[cell].min()) if J.size else np.inf
         min_J, rank = self.comm.allreduce((local_min, self.comm.rank), op=MPI.MINLOC)
         where = (int(self._cell_input_index[cell]), int(self.cell_tag[cell])) if cell >= 0 else (-1, -1)
         polygon, tag = self.comm.bcast(where, root=rank)
-        return AssemblyInfo(float(energy), float(min_J), polygon, tag)
+        with x.localForm() as xl:
+            folded = folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
+                                     self._owned_cells.astype(np.int64), self._solid)
+        folded |= self._solid & ~(J_nodes.min(axis=1, initial=np.inf) > 0.0)
+        return AssemblyInfo(float(energy), float(min_J), polygon, tag,
+                            *gather_folded(self.comm, folded, self._cell_input_index[self._owned_cells]))
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
         """Tangent ∂²Π/∂u² at x into A; rows of constrained unknowns become identity rows (columns kept).
@@ -498,6 +530,12 @@ class P2Discretization:
         with x.localForm() as xl:
             values = xl.array_r.reshape(-1, 2)[:n_owned].copy()
         return self.node_key[:n_owned].copy(), values
+
+    def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Node keys (:meth:`get_state`) of the midpoints of the edges between the
+        :attr:`output_mesh` points a and b (n,)."""
+        n = self._output_mesh.n_points
+        return n + np.minimum(a, b) * n + np.maximum(a, b)
 
     def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
         """Inverse of :meth:`get_state` for the full set of keys (any partition)."""

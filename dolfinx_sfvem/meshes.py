@@ -679,6 +679,10 @@ def _solid_with_quad_medium(solid_loops: Sequence[npt.ArrayLike], h: float, xs: 
 
 #: C-box of paper §5.2: length, wall thickness, height
 _CBOX_L, _CBOX_T, _CBOX_H = 1.0, 0.1, 0.5
+#: default width of the C-box's medium column right of the beams: the wall thickness, fixed
+#: whatever the mesh size (a column as thin as one small element lets the medium between the
+#: beams be dragged out sideways and the beams pass through each other, docs/contact.md)
+CBOX_COLUMN = 0.1
 
 
 def _cbox_benchmark(mesh: PolygonMesh) -> Benchmark:
@@ -694,18 +698,19 @@ def _cbox_medium(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
     return (cx > _CBOX_L) | ((cx > _CBOX_T) & (cy > _CBOX_T) & (cy < _CBOX_H - _CBOX_T))
 
 
-def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
+def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.PathLike | None = None,
+         column: float = CBOX_COLUMN) -> Benchmark:
     """C-box of paper §5.2 (Bluhm et al. 2021) with a quadrilateral third medium.
 
     Geometry (L = 1, wall thickness t = 0.1, height 0.5, initial gap 0.3): solid = left
     wall [0, 0.1] x [0, 0.5], bottom beam [0, 1] x [0, 0.1] and top beam [0, 1] x [0.4, 0.5];
-    medium = the cavity [0.1, 1] x [0.1, 0.4] and a column [1, 1 + h_solid] x [0, 0.5] to
-    the right of the structure.
+    medium = the cavity [0.1, 1] x [0.1, 0.4] and a column [1, 1 + column] x [0, 0.5] to
+    the right of the structure (default width :data:`CBOX_COLUMN`, independent of the mesh).
 
     Mesh: the solid is the dual (:func:`dual_polygons`) of a gmsh triangle mesh of size
     ``h_solid`` whose straight sides carry ``round(length / h_solid)`` equal segments; the
     medium is a grid of quads ``medium_refinement`` times finer than those segments
-    (column: ``medium_refinement`` quads across). The solid mesh does not depend on
+    (column: ``medium_refinement * round(column / h_solid)`` quads across). The solid mesh does not depend on
     ``medium_refinement``. With 1, the triangle vertices on the interface are quad
     vertices and the dual midpoints between them are hanging nodes in the quads; with 2,
     the quads end exactly at the solid polygons' interface points (the triangle vertices
@@ -717,30 +722,32 @@ def cbox(h_solid: float = 0.05, medium_refinement: int = 1, keep_gmsh: str | os.
 
     ``keep_gmsh``: write the solid's gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
     """
-    xs, ys = _cbox_axes(h_solid, medium_refinement)
+    xs, ys = _cbox_axes(h_solid, medium_refinement, column)
     L, t, H = _CBOX_L, _CBOX_T, _CBOX_H
     outline = [(0, 0), (L, 0), (L, t), (t, t), (t, H - t), (L, H - t), (L, H), (0, H)]
     mesh = _solid_with_quad_medium([outline], h_solid, xs[xs >= t - 1e-12], ys, _cbox_medium, keep_gmsh)
     return _cbox_benchmark(mesh)
 
 
-def cbox_grid(h_solid: float = 0.05, medium_refinement: int = 1) -> Benchmark:
-    """The C-box of :func:`cbox` (same geometry, column width ``h_solid``) meshed entirely
+def cbox_grid(h_solid: float = 0.05, medium_refinement: int = 1, column: float = CBOX_COLUMN) -> Benchmark:
+    """The C-box of :func:`cbox` (same geometry and ``column``) meshed entirely
     by its medium grid: rectangles of size ``h_solid / medium_refinement``, solid included,
     no hanging nodes. The mesh for degree-2 Lagrange FEM on quadrilaterals (Q2), see
     :meth:`~dolfinx_sfvem.fem.P2Discretization.from_polygon_mesh` with ``fem_mesh``.
     """
-    xs, ys = _cbox_axes(h_solid, medium_refinement)
+    xs, ys = _cbox_axes(h_solid, medium_refinement, column)
     return _cbox_benchmark(glue(_quad_grid(xs, ys, SOLID, lambda cx, cy: ~_cbox_medium(cx, cy)),
                                 _quad_grid(xs, ys, MEDIUM, _cbox_medium)))
 
 
-def _cbox_axes(h_solid: float, medium_refinement: int) -> tuple[np.ndarray, np.ndarray]:
-    """Grid lines of the C-box's bounding box [0, 1 + h_solid] x [0, 0.5] (the medium's quads)."""
+def _cbox_axes(h_solid: float, medium_refinement: int, column: float) -> tuple[np.ndarray, np.ndarray]:
+    """Grid lines of the C-box's bounding box [0, 1 + column] x [0, 0.5] (the medium's quads)."""
     if int(medium_refinement) != medium_refinement or medium_refinement < 1:
         raise ValueError(f"medium_refinement must be a positive integer, got {medium_refinement!r}")
+    if not (np.isfinite(column) and column > 0.0):
+        raise ValueError(f"the C-box's medium column width must be a number > 0, got {column!r}")
     L, t, H = _CBOX_L, _CBOX_T, _CBOX_H
-    return (_axis_nodes([0.0, t, L, L + h_solid], h_solid, medium_refinement),
+    return (_axis_nodes([0.0, t, L, L + column], h_solid, medium_refinement),
             _axis_nodes([0.0, t, H - t, H], h_solid, medium_refinement))
 
 

@@ -52,10 +52,11 @@ def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> n
 
 
 def write_json(path: pathlib.Path, data: typing.Mapping) -> None:
-    atomic_write_text(path, json.dumps(data, indent=1, default=_json_default) + "\n")
+    atomic_write_text(path, json.dumps(data, indent=1, default=json_default) + "\n")
 
 
-def _json_default(obj):
+def json_default(obj):
+    """``json.dumps`` default for numpy scalars and arrays."""
     if isinstance(obj, (np.integer,)):
         return int(obj)
     if isinstance(obj, (np.floating,)):
@@ -66,14 +67,17 @@ def _json_default(obj):
 
 
 def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mapping]) -> None:
-    """One row per converged step: step, load, Newton iterations, reactions, extras."""
+    """One row per converged step: step, load, Newton iterations, smallest gap between the solids
+    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), reactions, extras."""
     rows = [s for s in steps if s["converged"]]
     names = sorted({n for s in rows for n in s.get("reaction", {})})
     extras = sorted({k for s in rows for k in s.get("extra", {})})
-    header = ["step", "load", "newton_iterations"] + [f"{n}_R{c}" for n in names for c in "xy"] + extras
+    header = ["step", "load", "newton_iterations", "gap", "gap_x", "gap_y"] + \
+        [f"{n}_R{c}" for n in names for c in "xy"] + extras
     lines = []
     for s in rows:
-        r = [s["step"], s["load"], s["newton_iterations"]]
+        gap = s.get("gap") or {}
+        r = [s["step"], s["load"], s["newton_iterations"], gap.get("value"), *gap.get("x", [None, None])]
         r += [s["reaction"].get(n, [np.nan, np.nan])[c] for n in names for c in range(2)]
         r += [s["extra"].get(k, np.nan) for k in extras]
         lines.append(r)

@@ -25,6 +25,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import post
+from .contact import OVERLAP_TOLERANCE, Gap, SolidBoundary
 from .energy import Energy
 from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
@@ -80,6 +81,10 @@ class ContactProblem:
         same geometry and regions, :class:`~dolfinx_sfvem.fem.P2Discretization`).
     comm
         MPI communicator.
+    overlap_tolerance
+        A converged state in which a boundary node of a solid lies deeper inside a solid than
+        this fraction of the local boundary edge length is rejected like a failed step
+        (:mod:`~dolfinx_sfvem.contact`; the run stops when cutting the increment does not help).
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
@@ -88,7 +93,7 @@ class ContactProblem:
     """
 
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
-                 comm: MPI.Comm = MPI.COMM_WORLD, **options):
+                 comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE, **options):
         if method not in ("vem", "fem"):
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         self.method = method
@@ -102,6 +107,9 @@ class ContactProblem:
         else:
             from .fem import P2Discretization
             self.disc = P2Discretization.from_polygon_mesh(mesh, self.materials, comm, **options)
+        self.boundary = SolidBoundary(self.disc.output_mesh,
+                                      [tag for tag, energy in self.materials.items() if not energy.is_medium],
+                                      self.disc.midpoint_keys, overlap_tolerance)
         self.bcs: list[BoundaryCondition] = []
         self.f_ext = None
         self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
@@ -194,6 +202,11 @@ class ContactProblem:
             local = float(np.sqrt((u ** 2).sum(axis=1)).max(initial=0.0))
         return self.comm.allreduce(local, op=MPI.MAX)
 
+    def contact_gap(self) -> Gap:
+        """The smallest signed gap between the deformed solids at the current state, with where
+        it occurs (collective; :mod:`~dolfinx_sfvem.contact`)."""
+        return self.boundary.gap_of_state(self.comm, *self.disc.get_state(self.x))
+
     def point_displacements(self) -> np.ndarray | None:
         """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
         indices, values = self.disc.output_point_displacements(self.x)
@@ -239,8 +252,18 @@ class ContactProblem:
         writer = _RunWriter(self, out, stepper, append=resume) if out is not None else None
         observers = dict(observers or {})
 
+        gaps: list[Gap] = []        # of the last accepted state
+
         def solve_to(load: float) -> NewtonResult:
-            return newton.solve(self.x, load * final, load)
+            result = newton.solve(self.x, load * final, load)
+            if result.converged:
+                gap = self.contact_gap()
+                if gap.overlapping:
+                    result.converged = False
+                    result.failure = (f"solids overlap: {gap.describe()} (more than {self.boundary.tolerance:g} "
+                                      "times the local edge length)")
+                gaps[:] = [gap]
+            return result
 
         def save():
             return self.x.copy()
@@ -251,13 +274,13 @@ class ContactProblem:
             state.destroy()
 
         def record(load: float, res: NewtonResult, elapsed: float, converged: bool) -> StepRecord:
-            rec = StepRecord(step=sum(r["converged"] for r in records) + int(converged), load=load,
-                             newton_iterations=res.iterations, residual_norms=res.residual_norms,
-                             converged=converged, min_J=res.min_J, wall_time_s=elapsed)
-            return rec
+            return StepRecord(step=sum(r["converged"] for r in records) + int(converged), load=load,
+                              newton_iterations=res.iterations, residual_norms=res.residual_norms,
+                              converged=converged, min_J=res.min_J, failure=res.failure, wall_time_s=elapsed)
 
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
+            rec.gap = gaps[0].as_dict()
             rec.reaction = self.reactions(dofs_of, load)
             rec.max_displacement = self.max_displacement()
             rec.extra = {name: float(f(self)) for name, f in observers.items()}
@@ -270,8 +293,8 @@ class ContactProblem:
             rec = record(load, res, elapsed, False)
             records.append(asdict(rec))
             if self.verbose and self.comm.rank == 0:
-                print(f"  step to load {load:.5g} failed (SNES reason {res.reason}, {res.iterations} its, "
-                      f"min J {res.min_J:.3g}); cutting the increment", flush=True)
+                print(f"  step to load {load:.5g} failed ({res.failure}; {res.iterations} its); "
+                      "cutting the increment", flush=True)
 
         stop = _StopRequest()
         message, load = "", stepper.load
@@ -294,14 +317,19 @@ class ContactProblem:
         return self._finish(writer, records, t_start, load, message)
 
     def _check_initial_state(self) -> None:
-        """Reject a starting state with J <= 0 (inverted elements) or a non-finite energy."""
+        """Reject a starting state with J <= 0 (inverted elements), folded elements, a non-finite
+        energy or overlapping solids."""
         b = self.disc.create_vector()
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.disc.residual(self.x, b)
         b.destroy()
-        if not (info.min_J > 0.0) or not np.isfinite(info.energy):
+        if not info.admissible:
             raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
-                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}")
+                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}; {info.folded} folded "
+                             f"element(s), e.g. {info.folded_polygon}")
+        gap = self.contact_gap()
+        if gap.overlapping:
+            raise ValueError(f"the solids overlap in the initial configuration: {gap.describe()}")
 
     def _restore_checkpoint(self, out: pathlib.Path, stepper: LoadStepper, steps: int) -> list[dict]:
         """Load state, stepper state and converged records of a stopped run."""
@@ -311,11 +339,16 @@ class ContactProblem:
         data = np.load(path)
         if int(data["steps"]) != steps:
             raise ValueError(f"cannot resume: the stopped run used {int(data['steps'])} steps, not {steps}")
+        with open(out / "summary.json") as f:
+            previous = json.load(f)
+        differences = _differences(_identity(previous), _identity(self.summary([], 0.0, False)))
+        if differences:
+            raise ValueError(f"cannot resume the run in {out}: it solved another problem ({'; '.join(differences)}); "
+                             "resuming continues the same problem only, start a new run (another output "
+                             "directory) to change it")
         self.disc.set_state(data["keys"], data["values"], self.x)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         stepper.restore({k: float(data[k]) for k in ("load", "increment", "streak")})
-        with open(out / "summary.json") as f:
-            previous = json.load(f)
         records = [r for r in previous["steps"] if r["converged"]]
         earlier = previous.get("wall_time_s")
         self._earlier_wall_time = float(earlier) if isinstance(earlier, (int, float)) and np.isfinite(earlier) else 0.0
@@ -360,8 +393,9 @@ class ContactProblem:
         res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
         reac = "  ".join(f"R[{n}]=({v[0]:+.4e},{v[1]:+.4e})" for n, v in rec.reaction.items() if n != "fixed")
         extra = "  ".join(f"{k}={v:.4e}" for k, v in rec.extra.items())
+        gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
         print(f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-              f"min J {rec.min_J:.3f}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
+              f"min J {rec.min_J:.3f}  gap {gap:+.3e}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
 
 
 class _StopRequest:
@@ -389,6 +423,34 @@ class _StopRequest:
         for sig, old in self._old.items():
             signal.signal(sig, old)
         return False
+
+
+#: summary.json entries that may differ between a stopped run and its resumption
+_RUN_ENTRIES = ("wall_time_s", "converged", "message", "steps", "ranks")
+
+
+def _identity(summary: typing.Mapping[str, typing.Any]) -> dict[str, typing.Any]:
+    """What identifies the problem of a summary (everything but the run's progress and the
+    PETSc options), flattened to ``{"parameters.uy": -0.3, ...}`` and normalised through JSON."""
+    data = json.loads(json.dumps({k: v for k, v in summary.items() if k not in _RUN_ENTRIES},
+                                 default=post.json_default))
+    data.get("parameters", {}).pop("petsc_options", None)
+    flat: dict[str, typing.Any] = {}
+
+    def walk(prefix: str, value: typing.Any) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                walk(f"{prefix}.{k}" if prefix else str(k), v)
+        else:
+            flat[prefix] = value
+    walk("", data)
+    return flat
+
+
+def _differences(saved: typing.Mapping[str, typing.Any], now: typing.Mapping[str, typing.Any]) -> list[str]:
+    """``"name: saved A, now B"`` for every entry that differs."""
+    return [f"{k}: saved {saved.get(k, 'nothing')!r}, now {now.get(k, 'nothing')!r}"
+            for k in sorted(set(saved) | set(now)) if saved.get(k) != now.get(k)]
 
 
 def interrupted(summary: typing.Mapping[str, typing.Any]) -> bool:

@@ -132,6 +132,11 @@ class SolveFailed(RuntimeError):
 
 @dataclass
 class NewtonResult:
+    """Outcome of one Newton solve (one load step attempt).
+
+    ``failure`` says why the state is not accepted ("" when ``converged``): SNES's reason,
+    J <= 0, a folded element, or (set by :class:`~dolfinx_sfvem.ContactProblem`) overlapping solids.
+    """
     converged: bool
     reason: int
     iterations: int
@@ -139,6 +144,24 @@ class NewtonResult:
     min_J: float
     min_J_polygon: int
     min_J_tag: int
+    folded: int = 0
+    failure: str = ""
+
+
+def _failure(reason: int, info) -> str:
+    """Why a solve that ended with SNES ``reason`` at a state with diagnostics ``info`` is rejected."""
+    why = []
+    if reason <= 0:
+        name = next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
+                    str(reason))
+        why.append(f"SNES reason {reason} ({name})")
+    if not (info.min_J > 0.0):
+        why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
+    if info.folded:
+        why.append(f"{info.folded} folded element(s), e.g. {info.folded_polygon}")
+    if not np.isfinite(info.energy):
+        why.append("non-finite energy")
+    return "; ".join(why)
 
 
 class NewtonSolver:
@@ -196,7 +219,7 @@ class NewtonSolver:
             xc = xl.array_r[self._owned_constrained]
         b_arr = b.getArray()
         b_arr[self._owned_constrained] = xc - self.g
-        if not (info.min_J > 0.0) or not np.isfinite(info.energy):
+        if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
@@ -241,11 +264,12 @@ class NewtonSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         reason = self.snes.getConvergedReason()
         info = self.disc.residual(x, self.b)      # state diagnostics at the final iterate
-        ok = reason > 0 and info.min_J > 0.0 and np.isfinite(info.energy)
+        ok = reason > 0 and info.admissible
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag)
+                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded,
+                            "" if ok else _failure(reason, info))
 
 
 @dataclass
@@ -258,6 +282,8 @@ class StepRecord:
     converged: bool
     reaction: dict[str, list[float]] = field(default_factory=dict)
     min_J: float = float("nan")
+    failure: str = ""
+    gap: dict | None = None
     max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)
@@ -266,7 +292,8 @@ class StepRecord:
 class LoadStepper:
     """Ramp the load factor λ from its start to 1 in ``steps`` equal increments.
 
-    A step that does not converge (SNES divergence, J <= 0 or NaN) is retried from the last
+    A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
+    by the caller such as overlapping solids) is retried from the last
     converged state with half the increment, down to ``min_increment``; after
     ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
     the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
@@ -320,7 +347,7 @@ class LoadStepper:
             if self.increment / 2 < self.min_increment * (1 - 1e-12):
                 raise SolveFailed(
                     f"load step to load factor {target:.6g} failed with the smallest increment "
-                    f"{self.increment:.3g} (SNES reason {result.reason}, {result.iterations} Newton iterations, "
+                    f"{self.increment:.3g} ({result.failure}; {result.iterations} Newton iterations, "
                     f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
                     f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
                     f"last converged load factor {self.load:.6g}")

@@ -141,6 +141,8 @@ class VEMSpace:
     node_key : (n_local_nodes,) int64
         Partition-independent node id: the point index of a vertex, ``n_points`` + global
         edge index of a midpoint, ``n_points + n_edges`` + global polygon index of an interior node.
+    edge_index : callable
+        ``edge_index(a, b)``: global index (n,) of the polygon edges between points a and b (n,).
     projections : Projections
         Π^∇_2 and Π⁰_l∇ of the local polygons.
     q_offsets, x_q, w_q
@@ -161,6 +163,7 @@ class VEMSpace:
         self.polygons = np.unique(self._cell_polygon).astype(np.int64)
         self.tags = mesh.tags[self.polygons]
 
+        self.edge_index = _GlobalEdges(mesh)
         p2_nodes, kind = self._polygon_p2_nodes()
         self._number_nodes(p2_nodes, kind)
 
@@ -212,7 +215,7 @@ class VEMSpace:
         nodes[at_mid], kind[at_mid] = edge_node(v, v_next), MIDPOINT
         # partition-independent key of every DOF node (checkpoints): point index for vertices,
         # then global edge index for midpoints, then global polygon index for interiors
-        n_pts, edge_index = mesh.n_points, _GlobalEdges(mesh)
+        n_pts, edge_index = mesh.n_points, self.edge_index
         self._dof_key = np.empty(self.dof_offsets[-1], dtype=np.int64)
         self._dof_key[at_vertex] = v
         self._dof_key[at_mid] = n_pts + edge_index(v, v_next)

@@ -18,6 +18,7 @@ from petsc4py import PETSc
 from . import _compat, post
 from .assemble import basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop
 from .energy import Energy
+from .injectivity import folded_elements, gather_folded
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
 from .space import VERTEX, VEMSpace
@@ -57,11 +58,23 @@ class AssemblyInfo:
         Global index of the polygon where it occurs.
     min_J_tag : int
         Its region tag.
+    folded : int
+        Number of folded elements (:mod:`~dolfinx_sfvem.injectivity`): deformed boundary
+        through vertices and edge midpoints turned over or crossing itself.
+    folded_polygon : int
+        Global index of one of them (-1 if none).
     """
     energy: float
     min_J: float
     min_J_polygon: int
     min_J_tag: int
+    folded: int = 0
+    folded_polygon: int = -1
+
+    @property
+    def admissible(self) -> bool:
+        """J > 0 at every quadrature point, no folded element and a finite energy."""
+        return self.min_J > 0.0 and self.folded == 0 and bool(np.isfinite(self.energy))
 
 
 def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) -> None:
@@ -121,6 +134,15 @@ class SFVEMDiscretization:
         self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
         self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)
         self._constrained_key, self._constrained_at = None, None   # :meth:`_constrained_entries`
+        # boundary loop v_0, m_0, v_1, m_1, ... of every polygon (injectivity guard)
+        N = (nd - 1) // 2
+        self._loop_offsets = np.concatenate([[0], np.cumsum(2 * N)]).astype(np.int64)
+        first = np.repeat(space.dof_offsets[:-1], 2 * N)
+        k = np.arange(self._loop_offsets[-1]) - np.repeat(self._loop_offsets[:-1], 2 * N)
+        self._loop = space.dofs[first + k // 2 + (k % 2) * np.repeat(N, 2 * N)].astype(np.int64)
+        self._solid = np.zeros(space.polygons.size, dtype=bool)
+        for reg in self.regions:
+            self._solid[reg.polygons] = not reg.energy.is_medium
 
     # ------------------------------------------------------------------ PETSc objects
     def create_vector(self) -> PETSc.Vec:
@@ -162,17 +184,20 @@ class SFVEMDiscretization:
                 c = k.pack_constants(reg.energy.params)
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
                               *self._geometry, u, R, stats)
+            folded = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes, u,
+                                     np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self._gather_info(stats)
+        return self._gather_info(stats, folded)
 
-    def _gather_info(self, stats: np.ndarray) -> AssemblyInfo:
-        energy = self.comm.allreduce(stats[0], op=MPI.SUM)
-        local = (stats[1], self.comm.rank)
-        min_J, rank = self.comm.allreduce(local, op=MPI.MINLOC)
+    def _gather_info(self, stats: np.ndarray, folded: np.ndarray) -> AssemblyInfo:
+        """AssemblyInfo over all ranks from this rank's [energy, min J, its local polygon] and
+        folded mask over the local polygons."""
+        min_J, rank = self.comm.allreduce((stats[1], self.comm.rank), op=MPI.MINLOC)
         k = int(stats[2])
         where = (int(self.space.polygons[k]), int(self.space.tags[k])) if k >= 0 else (-1, -1)
         polygon, tag = self.comm.bcast(where, root=rank)
-        return AssemblyInfo(energy, float(min_J), polygon, tag)
+        return AssemblyInfo(self.comm.allreduce(stats[0], op=MPI.SUM), float(min_J), polygon, tag,
+                            *gather_folded(self.comm, folded, self.space.polygons))
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
         """Tangent (Eq. 56) at x into A; rows of constrained unknowns become identity rows.
@@ -283,6 +308,10 @@ class SFVEMDiscretization:
             q = slice(space.q_offsets[k], space.q_offsets[k + 1])
             out[nodes == interior_node[k]] = np.dot(space.w_q[q], value(space.x_q[q].T)) / space.w_q[q].sum()
         return out
+
+    def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Node keys (:meth:`get_state`) of the midpoints of the edges between the points a and b (n,)."""
+        return self.space.polygon_mesh.n_points + self.space.edge_index(a, b)
 
     def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
         """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2))."""

@@ -187,16 +187,30 @@ def assert_same_solid(a: PolygonMesh, b: PolygonMesh) -> None:
 def test_cbox(cboxes, r):
     bench = cboxes[r]
     mesh = bench.mesh
-    assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + 0.05 * 0.5})
+    assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + 0.1 * 0.5})
     assert_polygons_in(mesh, SOLID, CBOX_SOLID)
-    assert_polygons_in(mesh, MEDIUM, [(0.1, 1.0, 0.1, 0.4), (1.0, 1.05, 0.0, 0.5)])
+    assert_polygons_in(mesh, MEDIUM, [(0.1, 1.0, 0.1, 0.4), (1.0, 1.1, 0.0, 0.5)])
     assert_hanging_only_on_interface(mesh)
     for name, xy in bench.points.items():
         assert np.array_equal(mesh.points[bench.vertex(name)], xy)
     fixed = mesh.points[bench.vertices_on("fixed")]
     assert np.all(fixed[:, 0] == 0.0) and len(fixed) == 2 * 10 + 1         # vertices + dual midpoints
     medium_cells = np.diff(mesh.offsets)[mesh.tags == MEDIUM]
-    assert len(medium_cells) == r * r * (18 * 6 + 10)
+    assert len(medium_cells) == r * r * (18 * 6 + 2 * 10)
+
+
+@pytest.mark.parametrize("h,column", [(0.1, 0.1), (0.025, 0.1), (0.025, 0.025), (0.05, 0.2)])
+def test_cbox_column_is_geometry_not_mesh(h, column):
+    """The medium column right of the beams is ``column`` wide whatever the mesh size."""
+    for bench in (meshes.cbox(h_solid=h, column=column), meshes.cbox_grid(h_solid=h, column=column)):
+        mesh = bench.mesh
+        assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + column * 0.5})
+        assert np.isclose(mesh.points[:, 0].max(), 1.0 + column, rtol=0, atol=1e-12)
+
+
+def test_cbox_column_must_be_positive():
+    with pytest.raises(ValueError, match="column"):
+        meshes.cbox(h_solid=0.1, column=0.0)
 
 
 def test_cbox_refinement_keeps_solid(cboxes):
@@ -210,7 +224,7 @@ def test_cbox_grid_is_the_medium_grid_through_the_solid(cboxes, r):
     medium cells are exactly cbox()'s medium quads."""
     grid = meshes.cbox_grid(h_solid=0.05, medium_refinement=r)
     mesh = grid.mesh
-    assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + 0.05 * 0.5})
+    assert_valid(mesh, {SOLID: 0.23, MEDIUM: 0.9 * 0.3 + 0.1 * 0.5})
     assert_polygons_in(mesh, SOLID, CBOX_SOLID)
     assert np.all(np.diff(mesh.offsets) == 4) and meshes.t_junctions(mesh).size == 0
     x = mesh.points[mesh.vertices.reshape(-1, 4)]

@@ -1,0 +1,296 @@
+"""Signed gaps between the deformed solids: the penetration measure of a contact run.
+
+A third-medium run can converge to a state in which the solids overlap (the medium between
+them dragged out sideways) while J > 0 at every quadrature point, so every converged state
+is checked here, from the region tags alone:
+
+- *Solids* are the regions whose energy is not a third medium (:attr:`Energy.is_medium`);
+  *bodies* are the connected pieces of the solids (polygons sharing an edge), so one region
+  may hold several bodies (the seven discs of the multi-object example) and one body may
+  touch itself (the C-box, the box).
+- The *boundary* of the solids is every solid edge not shared with another solid polygon,
+  oriented with the solid on its left, each edge followed through its midpoint node (two
+  straight pieces through the degree-2 trace's three nodes).
+- Every boundary node p gets a signed gap g(p) in the deformed configuration: if p lies
+  inside a body (winding number of that body's deformed boundary; for p's own body, more
+  than the part p sits on), g(p) = -(distance to the nearest boundary piece of that body that
+  is not p's neighbourhood); otherwise g(p) = +(distance to the nearest boundary piece of
+  another body, or of a surface of p's own body *facing* p: reference normals more than 120°
+  apart, each in front of the other).
+- The run's gap is min_p g(p), with where it occurs. Solids *overlap* when some node lies
+  deeper inside than ``tolerance`` times the length of its boundary edge (a fraction of the
+  local mesh size).
+
+The bookkeeping is made once per mesh (:class:`SolidBoundary`); the per-state evaluation
+gathers the boundary nodes' displacements on rank 0 (a few thousand values) and runs a
+compiled loop over node-piece pairs.
+"""
+from __future__ import annotations
+
+import math
+import typing
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
+from mpi4py import MPI
+
+from .mesh import PolygonMesh
+
+#: default overlap tolerance, as a fraction of the length of the boundary edge at the node
+OVERLAP_TOLERANCE = 0.02
+#: two surfaces of one body face each other when their reference normals are more than 120° apart
+FACING_COSINE = -0.5
+
+
+@dataclass
+class Gap:
+    """The smallest signed gap between the deformed solids at one state.
+
+    Attributes
+    ----------
+    value : float
+        min_p g(p) (length unit of the mesh); negative: overlap; ``inf`` when no boundary node
+        has a partner (one body without facing surfaces).
+    x, X : (2,) float
+        Deformed and reference position of the node where it occurs.
+    region, partner_region : int
+        Region tag of that node and of the boundary piece it is measured to (-1 if none).
+    body, partner_body : int
+        Their bodies (connected pieces of the solids).
+    overlap : float
+        Largest depth / (tolerance x local edge length) over all nodes inside a body; > 1
+        means the solids overlap beyond the tolerance.
+    """
+    value: float
+    x: tuple[float, float]
+    X: tuple[float, float]
+    region: int
+    partner_region: int
+    body: int
+    partner_body: int
+    overlap: float
+
+    @property
+    def overlapping(self) -> bool:
+        return self.overlap > 1.0
+
+    def describe(self) -> str:
+        """One sentence naming the regions and the place."""
+        where = (f"node at ({self.x[0]:.4g}, {self.x[1]:.4g}), reference ({self.X[0]:.4g}, {self.X[1]:.4g}), "
+                 f"of region {self.region} (body {self.body})")
+        partner = f"region {self.partner_region} (body {self.partner_body})"
+        if self.value < 0.0:
+            return f"{where} lies {-self.value:.3e} inside {partner}"
+        return f"{where} is {self.value:.3e} from {partner}"
+
+    def as_dict(self) -> dict:
+        """JSON-ready record (``value`` None when infinite)."""
+        return {"value": self.value if math.isfinite(self.value) else None, "x": list(self.x), "X": list(self.X),
+                "region": self.region, "partner_region": self.partner_region, "body": self.body,
+                "partner_body": self.partner_body, "overlap": self.overlap}
+
+
+class SolidBoundary:
+    """The boundary of the solid bodies of a mesh, as pieces between degree-2 nodes.
+
+    Parameters
+    ----------
+    mesh
+        The mesh whose nodes carry the displacement (the polygon mesh for the SFVEM, the
+        FEM's cells for the FEM), identical on every rank.
+    solid_tags
+        Region tags of the solids (the others are third medium).
+    midpoint_keys
+        ``midpoint_keys(a, b)`` -> keys (n,) of the nodes at the midpoints of the edges
+        between mesh points ``a`` and ``b`` (n,), in the discretization's node numbering
+        (``get_state``); the key of a vertex node is its point index.
+    tolerance
+        Overlap tolerance as a fraction of the local boundary edge length.
+
+    Attributes
+    ----------
+    node_keys : (n_nodes,) int64
+        Discretization keys of the boundary nodes (vertices, then edge midpoints), sorted
+        by :attr:`order`.
+    X : (n_nodes, 2)
+        Their reference positions.
+    n_bodies : int
+    """
+
+    def __init__(self, mesh: PolygonMesh, solid_tags: typing.Collection[int],
+                 midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
+                 tolerance: float = OVERLAP_TOLERANCE):
+        if not (np.isfinite(tolerance) and tolerance > 0.0):
+            raise ValueError(f"overlap tolerance must be a positive fraction of the mesh size, not {tolerance!r}")
+        self.tolerance = float(tolerance)
+        solid = np.isin(mesh.tags, list(solid_tags))
+        start, end, polygon = mesh._edges()
+        in_solid = solid[polygon]
+        a, b, polygon = start[in_solid], end[in_solid], polygon[in_solid]
+        n = mesh.n_points
+        key = np.minimum(a, b) * n + np.maximum(a, b)
+        unique, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+        # bodies: solid polygons joined through shared edges
+        first_polygon = np.full(unique.size, -1, dtype=np.int64)
+        first_polygon[inverse[::-1]] = polygon[::-1]
+        shared = count[inverse] == 2
+        graph = scipy.sparse.coo_matrix((np.ones(int(shared.sum())), (polygon[shared], first_polygon[inverse[shared]])),
+                                        shape=(mesh.n_polygons, mesh.n_polygons))
+        _, component = scipy.sparse.csgraph.connected_components(graph, directed=False)
+        solid_polygons = np.flatnonzero(solid)
+        _, body_of = np.unique(component[solid_polygons], return_inverse=True)
+        body = np.full(mesh.n_polygons, -1, dtype=np.int64)
+        body[solid_polygons] = body_of
+        self.n_bodies = int(body_of.max(initial=-1)) + 1
+
+        boundary = count[inverse] == 1
+        a, b, polygon = a[boundary], b[boundary], polygon[boundary]
+        vertices = np.unique(np.concatenate([a, b]))
+        n_v, n_e = vertices.size, a.size
+        ia, ib = np.searchsorted(vertices, a), np.searchsorted(vertices, b)
+        im = n_v + np.arange(n_e)
+        self.X = np.concatenate([mesh.points[vertices], 0.5 * (mesh.points[a] + mesh.points[b])])
+        keys = np.concatenate([vertices, np.asarray(midpoint_keys(a, b), dtype=np.int64)])
+        self.order = np.argsort(keys)
+        self.node_keys = keys[self.order]
+        # pieces [a, m], [m, b] of every boundary edge, solid on the left
+        self.pieces = np.stack([np.concatenate([ia, im]), np.concatenate([im, ib])], axis=1).astype(np.int64)
+        self.piece_body = np.tile(body[polygon], 2)
+        self.piece_tag = np.tile(mesh.tags[polygon], 2).astype(np.int64)
+        d = self.X[self.pieces[:, 1]] - self.X[self.pieces[:, 0]]
+        self.piece_normal = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.linalg.norm(d, axis=1)[:, None]
+        self.piece_middle = 0.5 * (self.X[self.pieces[:, 0]] + self.X[self.pieces[:, 1]])
+        # per node: body, tag, normal (sum of its pieces'), length of its longest boundary edge
+        n_nodes = n_v + n_e
+        self.node_body = np.zeros(n_nodes, dtype=np.int64)
+        self.node_tag = np.zeros(n_nodes, dtype=np.int64)
+        normal = np.zeros((n_nodes, 2))
+        self.node_h = np.zeros(n_nodes)
+        edge_length = np.tile(np.linalg.norm(mesh.points[b] - mesh.points[a], axis=1), 2)
+        for end in (0, 1):
+            nodes = self.pieces[:, end]
+            self.node_body[nodes] = self.piece_body
+            self.node_tag[nodes] = self.piece_tag
+            np.add.at(normal, nodes, self.piece_normal)
+            np.maximum.at(self.node_h, nodes, edge_length)
+        self.node_normal = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+        by_body = np.argsort(self.piece_body, kind="stable")
+        self.pieces, self.piece_body, self.piece_tag = self.pieces[by_body], self.piece_body[by_body], self.piece_tag[by_body]
+        self.piece_normal, self.piece_middle = self.piece_normal[by_body], self.piece_middle[by_body]
+        self.body_offsets = np.searchsorted(self.piece_body, np.arange(self.n_bodies + 1)).astype(np.int64)
+
+    @property
+    def n_nodes(self) -> int:
+        return self.X.shape[0]
+
+    def gap(self, u: np.ndarray) -> Gap:
+        """The smallest signed gap at displacements ``u`` (n_nodes, 2) of the boundary nodes
+        (in the order of :attr:`node_keys`)."""
+        U = np.empty_like(self.X)
+        U[self.order] = u
+        x = self.X + U
+        g, partner, depth = _signed_gaps(x, self.X, self.pieces, self.body_offsets, self.node_body, self.node_normal,
+                                         self.piece_normal, self.piece_middle, self.node_h, FACING_COSINE)
+        overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
+        if not np.isfinite(g).any():
+            return Gap(math.inf, (math.nan, math.nan), (math.nan, math.nan), -1, -1, -1, -1, overlap)
+        p = int(np.argmin(g))
+        s = int(partner[p])
+        return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
+                   int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
+
+    def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
+        """:meth:`gap` from each rank's owned nodal values (``get_state`` of a discretization;
+        collective, the result on every rank)."""
+        mine = np.isin(keys, self.node_keys)
+        pieces = comm.gather((keys[mine], values[mine]), root=0)
+        result = None
+        if comm.rank == 0:
+            k = np.concatenate([p[0] for p in pieces])
+            v = np.concatenate([p[1] for p in pieces])
+            _, first = np.unique(k, return_index=True)
+            k, v = k[first], v[first]
+            if not np.array_equal(k, self.node_keys):
+                raise RuntimeError("boundary nodes missing from the state")
+            result = self.gap(v)
+        return comm.bcast(result, root=0)
+
+
+@numba.njit(cache=True)
+def _distance_to_piece(p, a, b):
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    L2 = dx * dx + dy * dy
+    t = 0.0 if L2 == 0.0 else min(1.0, max(0.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / L2))
+    ex, ey = p[0] - a[0] - t * dx, p[1] - a[1] - t * dy
+    return math.sqrt(ex * ex + ey * ey)
+
+
+@numba.njit(cache=True)
+def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_normal, piece_middle, node_h, facing):
+    """g(p), the piece it is measured to, and the depth of p inside a body (0 outside), for
+    every boundary node (module docstring).
+
+    x, X : (n, 2) deformed and reference node positions; pieces (m, 2) node pairs grouped by
+    body (``body_offsets``); node_body (n,); node_normal (n, 2) and piece_normal (m, 2),
+    piece_middle (m, 2) reference normals and midpoints; node_h (n,) local edge lengths.
+    """
+    n, n_bodies = x.shape[0], body_offsets.size - 1
+    g = np.full(n, np.inf)
+    partner = np.full(n, -1, dtype=np.int64)
+    depth = np.zeros(n)
+    lo = np.full((n_bodies, 2), np.inf)
+    hi = np.full((n_bodies, 2), -np.inf)
+    for B in range(n_bodies):
+        for s in range(body_offsets[B], body_offsets[B + 1]):
+            for k in range(2):
+                for c in range(2):
+                    lo[B, c] = min(lo[B, c], x[pieces[s, k], c])
+                    hi[B, c] = max(hi[B, c], x[pieces[s, k], c])
+    for p in range(n):
+        own = node_body[p]
+        inside = -1
+        for B in range(n_bodies):
+            if B != own and not (lo[B, 0] <= x[p, 0] <= hi[B, 0] and lo[B, 1] <= x[p, 1] <= hi[B, 1]):
+                continue
+            total = 0.0
+            for s in range(body_offsets[B], body_offsets[B + 1]):
+                i, j = pieces[s, 0], pieces[s, 1]
+                if i == p or j == p:
+                    continue
+                ax, ay = x[i, 0] - x[p, 0], x[i, 1] - x[p, 1]
+                bx, by = x[j, 0] - x[p, 0], x[j, 1] - x[p, 1]
+                total += math.atan2(ax * by - ay * bx, ax * bx + ay * by)
+            turns = total / (2.0 * math.pi)
+            # own body: the pieces beyond p's two sweep its interior angle in (0, 1) turns
+            k = math.floor(turns + 1e-9) if B == own else math.floor(turns + 0.5)
+            if k >= 1:
+                inside = B
+                break
+        for B in range(n_bodies):
+            if inside >= 0 and B != inside:
+                continue
+            for s in range(body_offsets[B], body_offsets[B + 1]):
+                i, j = pieces[s, 0], pieces[s, 1]
+                if i == p or j == p:
+                    continue
+                if B == own and inside >= 0:        # not p's neighbourhood
+                    dx, dy = piece_middle[s, 0] - X[p, 0], piece_middle[s, 1] - X[p, 1]
+                    if dx * dx + dy * dy <= 4.0 * node_h[p] * node_h[p]:
+                        continue
+                elif B == own:                      # a surface of p's own body facing p
+                    if node_normal[p, 0] * piece_normal[s, 0] + node_normal[p, 1] * piece_normal[s, 1] > facing:
+                        continue
+                    dx, dy = piece_middle[s, 0] - X[p, 0], piece_middle[s, 1] - X[p, 1]
+                    if dx * node_normal[p, 0] + dy * node_normal[p, 1] <= 0.0 or \
+                            dx * piece_normal[s, 0] + dy * piece_normal[s, 1] >= 0.0:
+                        continue
+                d = _distance_to_piece(x[p], x[i], x[j])
+                if inside >= 0:         # depth: distance to the nearest eligible piece of that body
+                    if partner[p] < 0 or d < depth[p]:
+                        depth[p], g[p], partner[p] = d, -d, s
+                elif d < g[p]:
+                    g[p], partner[p] = d, s
+    return g, partner, depth

@@ -1,0 +1,111 @@
+"""Injectivity guard: is the deformed map of every element one-to-one, judged from its nodes?
+
+J = det F at the quadrature points does not see every fold: a vertex pushed across the
+opposite side of its element can leave J > 0 at all of them. The guard therefore looks at
+the deformed boundary of each element (polygon or FEM cell), the closed polyline through
+its vertices and edge midpoints ``y = X + u``,
+
+    v_0, m_0, v_1, m_1, ..., v_{N-1}, m_{N-1}     (2N points, the degree-2 edge traces),
+
+and calls the element *folded* when that polyline has lost the orientation of the reference
+boundary (signed area of the deformed polyline times that of the reference one <= 0) or, in
+a solid, crosses itself (two non-adjacent segments intersect). Third-medium elements are only
+checked for orientation: squeezed between solids in contact, their edges legitimately kink
+across each other (docs/contact.md). Both discretizations call
+:func:`folded_elements` on every trial state (the line search and the cut-back treat a fold
+like J <= 0) and on every converged state. See docs/contact.md for what it does and does not
+catch (overlap of different parts of the solids is the job of :mod:`dolfinx_sfvem.contact`).
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+from mpi4py import MPI
+
+
+@numba.njit(cache=True)
+def _cross(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+@numba.njit(cache=True)
+def _orientation(p, q, r):
+    """Sign of the turn p -> q -> r: +1 left, -1 right, 0 collinear (exact zero only)."""
+    d = _cross(q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1])
+    return 1 if d > 0.0 else (-1 if d < 0.0 else 0)
+
+
+@numba.njit(cache=True)
+def segments_cross(p, q, r, s) -> bool:
+    """Whether the closed segments [p, q] and [r, s] (each (2,)) have a point in common."""
+    o1, o2 = _orientation(p, q, r), _orientation(p, q, s)
+    o3, o4 = _orientation(r, s, p), _orientation(r, s, q)
+    if o1 != o2 and o3 != o4:
+        return True
+    for a, b, c, o in ((p, q, r, o1), (p, q, s, o2), (r, s, p, o3), (r, s, q, o4)):
+        if o == 0 and min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]):
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _signed_area(y, loop, k0, n):
+    """Twice the signed area of the closed polyline y[loop[k0:k0 + n]]."""
+    a = 0.0
+    for k in range(n):
+        i, j = loop[k0 + k], loop[k0 + (k + 1) % n]
+        a += _cross(y[i, 0], y[i, 1], y[j, 0], y[j, 1])
+    return a
+
+
+@numba.njit(cache=True)
+def _self_crossing(y, loop, k0, n):
+    """Whether two non-adjacent segments of the closed polyline y[loop[k0:k0 + n]] meet."""
+    for a in range(n):
+        p, q = y[loop[k0 + a]], y[loop[k0 + (a + 1) % n]]
+        for b in range(a + 2, n):
+            if a == 0 and b == n - 1:
+                continue                      # adjacent through the closing segment
+            if segments_cross(p, q, y[loop[k0 + b]], y[loop[k0 + (b + 1) % n]]):
+                return True
+    return False
+
+
+@numba.njit(cache=True)
+def folded_elements(loop_offsets, loop, X, u, elements, crossing):
+    """Count the folded elements among ``elements`` (see the module docstring).
+
+    Parameters
+    ----------
+    loop_offsets : (n_elements + 1,) int64
+        Element e's boundary nodes are ``loop[loop_offsets[e]:loop_offsets[e + 1]]``.
+    loop : (loop_offsets[-1],) int64
+        Node indices, alternating vertex and edge midpoint, in the order of the boundary
+        (either orientation; the reference orientation is what must be kept).
+    X, u : (n_nodes, 2) float64
+        Reference coordinates and displacements of the nodes.
+    elements : (m,) int64
+        The elements to check.
+    crossing : (n_elements,) bool
+        Whether element e is also checked for a self-crossing boundary (solids) or only for
+        its orientation (third medium).
+
+    Returns
+    -------
+    (m,) bool
+        Whether each of ``elements`` is folded.
+    """
+    y = X + u
+    folded = np.zeros(elements.size, dtype=np.bool_)
+    for i, e in enumerate(elements):
+        k0, n = loop_offsets[e], loop_offsets[e + 1] - loop_offsets[e]
+        folded[i] = _signed_area(y, loop, k0, n) * _signed_area(X, loop, k0, n) <= 0.0 or \
+            (crossing[e] and _self_crossing(y, loop, k0, n))
+    return folded
+
+
+def gather_folded(comm: MPI.Comm, folded: np.ndarray, global_index: np.ndarray) -> tuple[int, int]:
+    """Number of folded elements over all ranks and the largest global index among them (-1 if
+    none), from each rank's mask ``folded`` (m,) over its elements with global indices ``global_index`` (m,)."""
+    first = int(global_index[folded].max(initial=-1))
+    return comm.allreduce(int(np.count_nonzero(folded)), op=MPI.SUM), comm.allreduce(first, op=MPI.MAX)

@@ -1,0 +1,192 @@
+"""Contact honesty: the injectivity guard, the signed gap between the solids, and runs whose
+solids pass through each other never ending as converged (docs/contact.md)."""
+import json
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem.contact import OVERLAP_TOLERANCE
+from dolfinx_sfvem.injectivity import folded_elements
+from dolfinx_sfvem.problem import Result
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SOLID, MEDIUM, OTHER = 1, 2, 3
+K, MU = 5 / 3, 5 / 14
+
+
+def medium(**kw) -> sf.ThirdMedium:
+    return sf.ThirdMedium(**{"mu": MU, "gamma": 1e-5, "alpha_r": 1.0, **kw})
+
+
+# --------------------------------------------------------------------------- the guard
+SQUARE = np.array([[0, 0], [0.5, 0], [1, 0], [1, 0.5], [1, 1], [0.5, 1], [0, 1], [0, 0.5]], dtype=float)
+
+
+def fold(u: np.ndarray, crossing: bool) -> bool:
+    """folded_elements of the one square whose boundary nodes (vertex, midpoint, ...) move by u (8, 2)."""
+    return bool(folded_elements(np.array([0, 8]), np.arange(8), SQUARE, u, np.array([0]), np.array([crossing]))[0])
+
+
+@pytest.mark.parametrize("crossing", [True, False])
+def test_guard_on_one_element(crossing):
+    assert not fold(np.zeros((8, 2)), crossing)
+    assert not fold(SQUARE @ np.array([[0.0, 0.3], [0.2, 0.0]]), crossing)      # sheared, still one-to-one
+    mirrored = SQUARE * [-1, 1] - SQUARE                                        # x -> -x: turned over
+    assert fold(mirrored, crossing)
+    pulled = np.zeros((8, 2))
+    pulled[1] = [0.0, 1.3]                    # bottom midpoint pulled through the top side: area still > 0
+    assert fold(pulled, crossing) == crossing  # solids: caught; medium: only the orientation is checked
+
+
+def octagon_problem(energy: sf.Energy) -> sf.ContactProblem:
+    angles = 2 * np.pi * np.arange(8) / 8
+    mesh = sf.PolygonMesh(np.column_stack([np.cos(angles), np.sin(angles)]), [list(range(8))], [SOLID])
+    return sf.ContactProblem(mesh, {SOLID: energy}, verbose=False)
+
+
+def moved_vertex(problem: sf.ContactProblem, at, by) -> None:
+    """The state: every node at rest except the one at ``at``, moved by ``by``."""
+    node = np.flatnonzero(np.hypot(*(problem.disc.space.x_nodes - at).T) < 1e-12)
+    with problem.x.localForm() as xl:
+        u = xl.array.reshape(-1, 2)
+        u[:] = 0.0
+        u[node] = by
+
+
+def assembly_info(problem: sf.ContactProblem):
+    return problem.disc.residual(problem.x, problem.disc.create_vector())
+
+
+def test_sfvem_guard_catches_a_fold_that_J_at_the_quadrature_points_misses():
+    """A regular octagon whose vertex (1, 0) is pushed past its neighbour's edge: J > 0 at every
+    quadrature point, but the deformed boundary crosses itself."""
+    problem = octagon_problem(sf.Hyperelastic(K=K, mu=MU))
+    moved_vertex(problem, (1.0, 0.0), (-0.2, 0.7))
+    info = assembly_info(problem)
+    assert info.min_J > 0.0
+    assert info.folded == 1 and info.folded_polygon == 0 and not info.admissible
+    with pytest.raises(ValueError, match="folded"):
+        problem.solve(steps=1)
+    squeezed = octagon_problem(medium())                # a medium element may kink, not turn over
+    moved_vertex(squeezed, (1.0, 0.0), (-0.2, 0.7))
+    assert assembly_info(squeezed).folded == 0
+
+
+def test_fem_guard_catches_a_fold_that_J_at_the_quadrature_points_misses():
+    """One P2 triangle whose bottom edge midpoint is pulled down and back: J > 0 at the six
+    quadrature points, J < 0 at a vertex node."""
+    triangle = sf.PolygonMesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], [SOLID])
+    problem = sf.ContactProblem(triangle, {SOLID: sf.Hyperelastic(K=K, mu=MU)}, method="fem", fem_mesh=triangle,
+                                verbose=False)
+    node = np.flatnonzero(np.hypot(*(problem.disc.x_nodes - (0.5, 0.0)).T) < 1e-12)
+    with problem.x.localForm() as xl:
+        xl.array.reshape(-1, 2)[node] = (-0.3, -0.8)
+    info = assembly_info(problem)
+    assert info.min_J > 0.0 and info.folded == 1 and not info.admissible
+
+
+# --------------------------------------------------------------------------- the gap
+def two_blocks() -> sf.PolygonMesh:
+    """Block [0,1]x[0,1] (SOLID), medium layer [0,1]x[1,1.2], block [0,1]x[1.2,2.2] (OTHER)."""
+    return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, tag=SOLID),
+                          sf.meshes.quad_rectangle(1.0, 0.2, 4, 1, origin=(0.0, 1.0), tag=MEDIUM),
+                          sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, origin=(0.0, 1.2), tag=OTHER))
+
+
+@pytest.mark.parametrize("method", ["vem", "fem"])
+@pytest.mark.parametrize("drop, gap", [(0.0, 0.2), (0.1, 0.1), (0.3, -0.1)])
+def test_gap_between_two_bodies(method, drop, gap):
+    """The upper block moved down by ``drop`` onto the lower one: gap 0.2 - drop, negative when
+    they overlap, with the two regions named."""
+    options = {"fem_mesh": two_blocks()} if method == "fem" else {}
+    problem = sf.ContactProblem(two_blocks(), {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium(),
+                                               OTHER: sf.Hyperelastic(K=K, mu=MU)},
+                                method=method, verbose=False, **options)
+    problem.set_displacement(uy=lambda x: np.where(x[1] > 1.1, -drop, 0.0))
+    g = problem.contact_gap()
+    assert g.value == pytest.approx(gap, abs=1e-12)
+    assert {g.region, g.partner_region} == {SOLID, OTHER} and g.body != g.partner_body
+    assert g.overlapping == (gap < 0)
+    if gap < 0:                  # 0.1 deep, tolerance 0.02 x edge length 0.25
+        assert g.overlap == pytest.approx(0.1 / (0.02 * 0.25))
+        assert "inside region" in g.describe()
+
+
+def test_self_contact_gap_is_objective():
+    """C-box at rest: the beams' facing surfaces are 0.3 apart (the other surfaces of the one body
+    do not face each other); the same after a rigid motion, 1.5 times that after a uniform stretch."""
+    box = sf.meshes.cbox(h_solid=0.1)
+    problem = sf.ContactProblem(box.mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium()}, verbose=False)
+    assert problem.boundary.n_bodies == 1
+    assert problem.contact_gap().value == pytest.approx(0.3, abs=1e-12)
+    c, s = np.cos(0.5), np.sin(0.5)
+    problem.set_displacement(ux=lambda x: c * x[0] - s * x[1] + 2.0 - x[0], uy=lambda x: s * x[0] + c * x[1] - 1.0 - x[1])
+    assert problem.contact_gap().value == pytest.approx(0.3, abs=1e-12)
+    problem.set_displacement(ux=lambda x: 0.5 * x[0], uy=lambda x: 0.5 * x[1])
+    assert problem.contact_gap().value == pytest.approx(0.45, abs=1e-12)
+
+
+def test_overlap_tolerance_must_be_positive():
+    with pytest.raises(ValueError, match="overlap tolerance"):
+        sf.ContactProblem(two_blocks(), {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium(),
+                                         OTHER: sf.Hyperelastic(K=K, mu=MU)}, verbose=False, overlap_tolerance=0.0)
+
+
+# --------------------------------------------------------------------------- runs
+def thin_column_cbox(overlap_tolerance: float) -> Result:
+    """The paper's C-box (u_y = -0.5 in 25 steps, h = 0.05) with a medium column only 0.0125 wide:
+    the medium between the beams is dragged out sideways and the upper beam passes through the
+    lower one (docs/contact.md)."""
+    box = sf.meshes.cbox(h_solid=0.05, column=0.0125)
+    problem = sf.ContactProblem(box.mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium()}, verbose=False,
+                                overlap_tolerance=overlap_tolerance)
+    problem.fix(lambda x: np.isclose(x[0], 0.0))
+    problem.prescribe(lambda x: np.hypot(x[0] - 1.0, x[1] - 0.5) < 1e-10, uy=-0.5, name="load")
+    return problem.solve(steps=25)
+
+
+def converged_gaps(result) -> np.ndarray:
+    return np.array([s["gap"]["value"] for s in result.steps if s["converged"]])
+
+
+@pytest.mark.slow
+def test_penetrating_run_never_ends_as_converged():
+    """Unchecked (tolerance 1e9), the thin-column C-box reaches the full load with the beams 0.05
+    through each other; checked, it stops as not converged, naming the overlap, and every step
+    it kept has the solids apart (within the tolerance, 0.02 x 0.05 = 1e-3)."""
+    unchecked = thin_column_cbox(1e9)
+    assert unchecked.converged and converged_gaps(unchecked).min() < -0.02
+    checked = thin_column_cbox(OVERLAP_TOLERANCE)
+    assert not checked.converged and checked.load < 1.0
+    assert "solids overlap" in checked.message and "region 1 (body 0)" in checked.message
+    assert converged_gaps(checked).min() >= -0.02 * 0.05
+
+
+def run_cbox(*args, out):
+    return subprocess.run([sys.executable, str(ROOT / "demos" / "cbox.py"), "--h", "0.1", "--quiet", "--out", str(out),
+                           *args], capture_output=True, text=True, cwd=ROOT, timeout=600)
+
+
+def test_cbox_gap_is_recorded_per_step(tmp_path):
+    proc = run_cbox("--uy", "-0.2", "--steps", "4", out=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    gaps = [s["gap"]["value"] for s in summary["steps"]]
+    assert gaps[0] < 0.3 and all(np.diff(gaps) < 0) and gaps[-1] > 0     # the beams approach
+    header = (tmp_path / "load_path.csv").read_text().splitlines()[0].split(",")
+    assert header[3:6] == ["gap", "gap_x", "gap_y"]
+
+
+def test_resume_of_another_problem_is_refused(tmp_path):
+    """Resuming with another prescribed displacement would relabel the saved state: refused,
+    naming what differs; the saved run is untouched."""
+    assert run_cbox("--uy", "-0.2", "--steps", "8", out=tmp_path).returncode == 0
+    before = (tmp_path / "summary.json").read_text()
+    proc = run_cbox("--uy", "-0.3", "--steps", "8", "--resume", str(tmp_path), out=tmp_path)
+    assert proc.returncode == 2
+    assert "cannot resume" in proc.stderr and "parameters.uy: saved -0.2, now -0.3" in proc.stderr
+    assert (tmp_path / "summary.json").read_text() == before
