@@ -23,10 +23,10 @@ h/2 (``--mesh 2``) joined to the unchanged solid mesh through hanging nodes.
 
 FEM reference (``--method fem``): by default Q2, degree-2 Lagrange on quadrilaterals, on
 ``dolfinx_sfvem.meshes.cbox_grid``: the medium's grid continued through the solid, the same
-geometry in rectangles of size h (``--mesh 1``, 1806 unknowns at h = 0.05) or h/2
-(``--mesh 2``, 6970). ``--fem-cells triangles`` gives P2 on a triangulation with about the
-SFVEM's unknowns instead; there the medium folds around the beam tips and the load path ends
-at a limit point before full load (``dolfinx_sfvem/fem.py``, known limitation).
+geometry in rectangles of size h (``--mesh 1``) or h/2 (``--mesh 2``). ``--fem-cells triangles``
+gives P2 on a triangulation with about the SFVEM's unknowns instead, whose cell-wise second
+gradient lets the compressed medium fold along element edges more easily
+(docs/fem-reference.md).
 
 Parameters
 ----------
@@ -86,7 +86,7 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--fem-cells", choices=FEM_CELLS, default=None,
                    help="--method fem only: quads = Q2 on the medium's grid continued through the solid "
                         "(default), triangles = P2 on a triangulation with about the SFVEM's unknowns "
-                        "(its medium folds, dolfinx_sfvem/fem.py)")
+                        "(docs/fem-reference.md)")
     return p
 
 

@@ -190,9 +190,8 @@ EXAMPLES = (
 #: what the FEM reference is, at the top of the page
 FEM_NOTE = ("The FEM reference is degree-2 Lagrange on the same UFL energy with the cell-wise second "
             "gradient: P2 on a triangulation with about the SFVEM's unknowns, except on the C-box, where it is "
-            "Q2 on the medium's quadrilateral grid continued through the solid (`meshes.cbox_grid`): P2 "
-            "triangles fold the C-box medium around the beam tips and stop at a limit point, load factor "
-            "0.34 to 0.79 (`dolfinx_sfvem/fem.py`, `demos/cbox.py --fem-cells triangles`).")
+            "Q2 on the medium's quadrilateral grid continued through the solid (`meshes.cbox_grid`; "
+            "`demos/cbox.py --fem-cells triangles` for P2, docs/fem-reference.md).")
 
 #: the box sweeps: (run name, option, output directory, estimated full / quick seconds)
 SWEEPS = (("box-table2", "--table2", TABLE2_DIR, 3 * 3600, 60),

@@ -18,70 +18,20 @@ The class mirrors :class:`~dolfinx_sfvem.vem.SFVEMDiscretization` (the protocol
 block size 2 laid out ``2 * node + component`` (node = blocked P2 dof), Dirichlet rows
 as identity rows with the columns kept, diagnostics as :class:`~dolfinx_sfvem.vem.AssemblyInfo`.
 
-Quadrature: degree 4 by default (6 points per triangle). F is linear and G constant in a
-P2 triangle, so the small-strain part of every energy and the linear-elastic tangent are
-polynomials of degree 2, the regularizations' G:G of degree 0 and the P2 mass matrix
-(body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
-orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan). On quadrilaterals
-basix's degree-4 rule is 3 x 3 Gauss, exact for the Q2 linear-elastic part on parallelograms
-(degree 4 in each direction). Measured on the
-C-box at u_y = -0.3 (3138 unknowns): the reaction changes by 3e-5 (relative) from
-degree 2 to 4 and by 1e-8 from 4 to 6; the 15-step solve takes 1.8 / 2.2 / 2.6 s with
-degree 2 / 4 / 6.
+Quadrature: degree 4 by default (6 points per triangle, 3 x 3 Gauss on quadrilaterals). F is
+linear and G constant in a P2 triangle, so the small-strain part of every energy and the
+linear-elastic tangent are polynomials of degree 2, the regularizations' G:G of degree 0 and the
+P2 mass matrix (body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
+orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan); 3 x 3 Gauss is exact for
+the Q2 linear-elastic part on parallelograms.
 
-Known limitation: the medium folds in strong compression. A P2 field that kinks along an
-element edge carries no regularization energy there (G is cell-wise), so the regularization
-loses its hold on the medium as the triangles get smaller; the soft modes of the compressed
-medium are such kinks (gradient jumps across edges outweigh the cell-wise G by 40 to 1e4 in
-the lowest tangent modes of the C-box). On the C-box (rotation, gamma = 1e-5, alpha_r = 1,
-matched mesh, 3138 unknowns) the medium folds around the beam tips: solid vertices lie
-inside deformed medium triangles from u_y = -0.25 on, and at u_y = -0.3376 the load path has
-a limit point (the smallest tangent eigenvalue goes to zero like sqrt(λ_c - λ), the reaction
-peaks), beyond which no line search, increment or tolerance continues (quadrature degrees 2
-to 8 only move the limit point; a run that differs in round-off stalls at u_y = -0.4446).
-Load factor reached with 25 steps to u_y = -0.5: structured meshes h = 0.1: 1; h = 0.05: 1
-with all diagonals one way, 0.89 the other way, 0.97 alternating, 0.64 crossed; h = 0.025:
-0.57 to 0.70; gmsh meshes h = 0.03 to 0.06: 0.67 to 0.80. The SFVEM (G projected over whole
-polygons) reaches the full load on both medium densities, without solid vertices inside
-medium polygons at u_y = -0.3.
-
-Q2 on the C-box's medium grid continued through the solid (``fem_mesh`` =
-:func:`~dolfinx_sfvem.meshes.cbox_grid`, the C-box demo's FEM) does not fold: no solid vertex
-inside the medium at u_y = -0.3 (tests/test_fem.py), and full load in every run of the
-results page (2 ranks, 50 steps; 1806 / 6970 unknowns on medium meshes 1 / 2):
-
-| C-box run | Q2 FEM reaction | SFVEM reaction |
-|---|---|---|
-| u_y = -0.5, alpha_r = 1, mesh 1 | 3.442e-4 | 3.535e-4 |
-| u_y = -0.5, alpha_r = 1, mesh 2 | 3.381e-4 | 3.516e-4 |
-| u_y = -1, alpha_r = 20 (100 steps), mesh 1 | 6.735e-3 | 6.553e-3 |
-
-(at full load both methods show 1 to 4 solid vertices inside straight-sided deformed medium
-cells at the contact point, where the medium is compressed to J ~ 1e-3).
-
-Option ``jump_penalty=eta``: C0 interior-penalty terms on the medium's interior facets
-(:meth:`P2Discretization._jump_energy`), which stop the folding but change the model: the
-regularization then acts across elements.
-
-| C-box run (2 ranks, gamma = 1e-5) | eta | load reached | reaction |
-|---|---|---|---|
-| u_y = -0.5, alpha_r = 1, medium meshes 1 and 2 | 40 | 1 | 3.917e-4 (SFVEM: 3.535e-4) |
-| u_y = -1, alpha_r = 20 | 10 | 0.70 | |
-| u_y = -1, alpha_r = 20 | 40 | 0.82 | |
-| u_y = -1, alpha_r = 20 | 100 | 0.90 | |
-| u_y = -0.2, alpha_r = 1 (before contact) | 10 | | +48 % over the plain FEM |
-| u_y = -0.2, alpha_r = 1 (before contact) | 40 | | +59 % over the plain FEM |
-
-The SFVEM is within 5 % of the plain FEM before contact. Off by default: the paper's model is
-the element-wise regularization.
-
-The same kinks make the FEM medium nearly blind to the regularization. Multi-object example,
-BC 1, u_y = -0.03, before contact, h = 0.04:
-
-- FEM force: 6.189e-4 / 6.212e-4 / 6.213e-4 for alpha_r = 0 / 1 / 10, and 6.215e-4 at h = 0.02;
-- SFVEM force: 6.189e-4 / 7.832e-4 / 1.221e-3, and 9.67e-4 at h = 0.02 with alpha_r = 10.
-
-Without regularization the two methods agree to 3e-5.
+The second gradient is cell-wise: a field that kinks along an element edge carries no
+regularization energy there, so in strong compression the FEM medium can fold along element
+edges where the SFVEM's (projected over whole polygons) does not. Option ``jump_penalty=eta``
+adds C0 interior-penalty terms on the medium's interior facets
+(:meth:`P2Discretization._jump_energy`), which stop such folds but change the model (the
+regularization then acts across elements); off by default, as the paper's model is the
+element-wise regularization. Measurements: docs/fem-reference.md.
 """
 from __future__ import annotations
 
