@@ -54,6 +54,8 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
 }
 #: the default ``snes_atol`` in units of the round-off level ``eps * F_c`` of the residual (module docstring)
 ATOL_ROUNDOFF_FACTOR = 1e4
+#: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
+STALL_FACTOR = 10.0
 
 
 def set_petsc_options(tokens: typing.Sequence[str] | typing.Mapping[str, typing.Any]) -> None:
@@ -148,13 +150,31 @@ class NewtonResult:
     failure: str = ""
 
 
-def _failure(reason: int, info) -> str:
-    """Why a solve that ended with SNES ``reason`` at a state with diagnostics ``info`` is rejected."""
+def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
+    """Where Newton stalled: its smallest residual in units of ``atol`` and of the round-off level
+    eps F_c (None when ``snes_atol`` was given), and what that suggests (docs/gamma-1e-6.md)."""
+    floor = min(norms)
+    text = f"smallest residual {floor:.3e} = {floor / atol:.3g} x atol {atol:.3e}"
+    if roundoff:
+        text += f" = {floor / roundoff:.3g} x round-off eps*F_c {roundoff:.3e}"
+    if floor > STALL_FACTOR * atol:
+        return text + ("; not a round-off limit: the Newton step leaves the region where the tangent predicts "
+                       "the residual (e.g. a soft, strongly compressed medium; docs/gamma-1e-6.md)")
+    return text + ("; stalled within 10 x atol: typical of a bifurcation or limit point of the load path "
+                   "(docs/gamma-1e-6.md)")
+
+
+def _failure(reason: int, info, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
+    """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
+    state with diagnostics ``info`` is rejected."""
     why = []
     if reason <= 0:
         name = next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
                     str(reason))
         why.append(f"SNES reason {reason} ({name})")
+        stalled = reason in (PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
+        if stalled and info.admissible and norms and atol > 0:
+            why.append(_stall(norms, atol, roundoff))
     if not (info.min_J > 0.0):
         why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
     if info.folded:
@@ -267,9 +287,11 @@ class NewtonSolver:
         ok = reason > 0 and info.admissible
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
+        atol = self.snes.getTolerances()[1]
+        failure = "" if ok else _failure(reason, info, self.history, atol,
+                                         atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded,
-                            "" if ok else _failure(reason, info))
+                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, failure)
 
 
 @dataclass

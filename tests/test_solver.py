@@ -19,7 +19,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes
+from dolfinx_sfvem import meshes, solver
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -283,3 +283,15 @@ def test_empty_boundary_condition_is_named(add):
     add(problem)
     with pytest.raises(ValueError, match="'outside'"):
         problem.solve(1)
+
+
+@pytest.mark.parametrize("norms, atol, roundoff, kind", [
+    ([1e-5, 5.9e-7, 4.1e-7, 6e-7], 8.9e-9, 8.9e-13, "not a round-off limit"),      # gamma 1e-6 cylinder
+    ([3e-8, 2.818e-9, 2.9e-9], 2.786e-9, 2.786e-13, "bifurcation or limit point"),  # box mesh 3
+    ([3e-8, 2.818e-9], 2.786e-9, None, "bifurcation or limit point"),              # snes_atol given
+])
+def test_stall_is_classified_by_its_residual_floor(norms, atol, roundoff, kind):
+    text = solver._stall(norms, atol, roundoff)
+    floor = min(norms)
+    assert kind in text and f"{floor:.3e} = {floor / atol:.3g} x atol" in text
+    assert ("round-off eps*F_c" in text) == (roundoff is not None)
