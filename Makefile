@@ -44,9 +44,11 @@ bench: $(STAMP)
 	cp $(OUT)/bench/results.json $(OUT)/bench/results.md bench/
 
 # the paper's examples with SFVEM and FEM on $(NP) and 1 ranks, then docs/results.md (hours;
-# restartable). RESULTS_OPTS=--quick checks the pipeline in minutes (out/results-quick).
+# restartable), then the mesh refinement study, docs/refinement.md (about 1.5 h; restartable).
+# RESULTS_OPTS / REFINEMENT_OPTS go to each (--quick checks the pipelines in minutes).
 results: $(STAMP)
-	$(PY) demos/results.py --np $(NP) --out $(OUT) $(RESULTS_OPTS)
+	rc=0; $(PY) demos/results.py --np $(NP) --out $(OUT) $(RESULTS_OPTS) || rc=$$?; \
+	$(PY) demos/refinement.py --np $(NP) --out $(OUT) $(REFINEMENT_OPTS) || rc=$$?; exit $$rc
 
 # the demo meshes at their default sizes, with summary.md (meshes/README.md)
 meshes: $(STAMP)
