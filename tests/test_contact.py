@@ -61,6 +61,7 @@ def assembly_info(problem: sf.ContactProblem):
     return problem.disc.residual(problem.x, problem.disc.create_vector())
 
 
+@pytest.mark.mpi
 def test_sfvem_guard_catches_a_fold_that_J_at_the_quadrature_points_misses():
     """A regular octagon whose vertex (1, 0) is pushed past its neighbour's edge: J > 0 at every
     quadrature point, but the deformed boundary crosses itself."""
@@ -97,6 +98,7 @@ def two_blocks() -> sf.PolygonMesh:
                           sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, origin=(0.0, 1.2), tag=OTHER))
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("method", ["vem", "fem"])
 @pytest.mark.parametrize("drop, gap", [(0.0, 0.2), (0.1, 0.1), (0.3, -0.1)])
 def test_gap_between_two_bodies(method, drop, gap):
@@ -116,6 +118,7 @@ def test_gap_between_two_bodies(method, drop, gap):
         assert "inside region" in g.describe()
 
 
+@pytest.mark.mpi
 def test_self_contact_gap_is_objective():
     """C-box at rest: the beams' facing surfaces are 0.3 apart (the other surfaces of the one body
     do not face each other); the same after a rigid motion, 1.5 times that after a uniform stretch."""
