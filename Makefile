@@ -51,7 +51,7 @@ $(STAMP): pyproject.toml
 install-dolfinx011: $(STAMP011)
 
 $(STAMP011): pyproject.toml
-	@[ -n "$(PYTHON312)" ] || { echo "install-dolfinx011: no Python >= 3.12 found (see PYTHON312 in the Makefile)"; exit 1; }
+	@[ -n "$(PYTHON312)" ] || { echo "install-dolfinx011: no Python >= 3.12 found (see PYTHON312 above)"; exit 1; }
 	[ -x $(PY011) ] || $(PYTHON312) -m venv $(VENV011)
 	$(PY011) -m pip install -q -e ".[wheel,test]"
 	touch $(STAMP011)

@@ -49,7 +49,7 @@ import dolfinx.la
 import dolfinx.mesh
 
 try:
-    import basix.ufl as _basix_ufl     # the elements of DOLFINx >= 0.7
+    import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)
 except ImportError:
     _basix_ufl = None
 
@@ -83,15 +83,15 @@ def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.
 
 
 #: whether ``dolfinx.mesh.create_mesh`` takes ``(comm, cells, x, domain, ghost_mode, partitioner)``
-#: with a partitioner ``(comm, n_parts, tdim, graph, ghost_mode)`` (DOLFINx < 0.6); later versions take
-#: ``(comm, cells, domain, x, partitioner)`` with a partitioner ``(comm, n_parts, cell_types, cells)``
+#: with a partitioner ``(comm, n_parts, tdim, graph, ghost_mode)`` (DOLFINx 0.5); DOLFINx 0.11 takes
+#: ``(comm, cells, e, x, partitioner)`` with a partitioner ``(comm, n_parts, cell_types, cells)``
 #: that carries the ghost mode
 _CREATE_MESH_TAKES_GHOST_MODE = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
 
 
 def coordinate_domain(cell: str) -> ufl.Mesh:
     """The ufl domain of an affine mesh in 2D of ``cell`` s (``"triangle"`` or ``"quadrilateral"``)."""
-    if _basix_ufl is None:             # UFL elements (DOLFINx < 0.7)
+    if _basix_ufl is None:             # UFL's own elements (DOLFINx 0.5)
         return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
     return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(2,)))
 
@@ -185,7 +185,7 @@ def input_node_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
 
 
 def _rows(table) -> npt.NDArray[np.int32]:
-    """A 2D array of a fixed-width table: an ndarray (DOLFINx >= 0.7) or an AdjacencyList."""
+    """A 2D array of a fixed-width table: an ndarray (DOLFINx 0.11) or an AdjacencyList (0.5)."""
     if isinstance(table, np.ndarray):
         return table
     return table.array.reshape(table.num_nodes, -1)
@@ -206,12 +206,12 @@ def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
 # --------------------------------------------------------------------------- spaces, vectors, UFL
 def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
     """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
-    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx >= 0.7
+    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx 0.11
         return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
     return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
-#: MPI tag of the messages DOLFINx >= 0.8 exchanges while it builds an index map (any tag works: the
+#: MPI tag of the messages DOLFINx 0.11 exchanges while it builds an index map (any tag works: the
 #: construction is collective and completes before it returns)
 _INDEX_MAP_TAG = 1
 
@@ -223,16 +223,16 @@ def create_index_map(comm: MPI.Comm, n_owned: int, ghosts: npt.NDArray[np.int64]
             np.ascontiguousarray(ghost_owners, dtype=np.int32))
     try:
         return dolfinx.cpp.common.IndexMap(*args, _INDEX_MAP_TAG)
-    except TypeError:                   # DOLFINx < 0.8 takes no tag
+    except TypeError:                   # DOLFINx 0.5 takes no tag
         return dolfinx.cpp.common.IndexMap(*args)
 
 
 def _petsc_vector_function():
     """DOLFINx's function creating a ghosted PETSc vector, called as ``f(index_map, bs)``."""
-    if hasattr(dolfinx.la, "create_petsc_vector"):    # DOLFINx < 0.8
+    if hasattr(dolfinx.la, "create_petsc_vector"):    # DOLFINx 0.5
         return dolfinx.la.create_petsc_vector
     from dolfinx.la.petsc import create_vector as create
-    if "maps" in inspect.signature(create).parameters:     # DOLFINx >= 0.10: a list of (map, bs) pairs
+    if "maps" in inspect.signature(create).parameters:     # DOLFINx 0.11: a list of (map, bs) pairs
         return lambda index_map, bs: create([(index_map, bs)])
     return create
 
@@ -246,7 +246,7 @@ def create_petsc_vector(index_map: dolfinx.cpp.common.IndexMap, bs: int) -> PETS
 
 
 def atan2(y: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-    """``atan2(y, x)`` in UFL (``ufl.atan_2`` before UFL 2023)."""
+    """``atan2(y, x)`` in UFL (``ufl.atan_2`` in UFL 2022, DOLFINx 0.5's)."""
     return ufl.atan2(y, x) if hasattr(ufl, "atan2") else ufl.atan_2(y, x)
 
 
@@ -257,10 +257,10 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
     The generated C function has the ufcx signature
     ``void f(double* A, const double* w, const double* c, const double* x,
     const int* entity_local_index, const uint8_t* perm[, void* custom_data])`` (the last
-    argument in the ufcx of DOLFINx 0.11, not of 0.5); it *adds* the expression's flattened (row-major) components to
-    ``A``. ``c`` holds the constants that survive derivative expansion, in UFL count order;
-    pass a single vector Constant to keep the packing explicit. Call it with
-    :func:`call_kernel`.
+    argument in the ufcx of DOLFINx 0.11, not of 0.5); it *adds* the expression's flattened
+    (row-major) components to ``A``. ``c`` holds the constants that survive derivative
+    expansion, in UFL count order; pass a single vector Constant to keep the packing explicit.
+    Call it with :func:`call_kernel`.
 
     Returns
     -------
@@ -434,7 +434,7 @@ def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int
     return np.asarray(points), np.asarray(weights)
 
 
-#: whether ``Expression.eval`` takes the mesh (DOLFINx >= 0.7)
+#: whether ``Expression.eval`` takes the mesh (DOLFINx 0.11)
 _EVAL_TAKES_MESH = "mesh" in inspect.signature(dolfinx.fem.Expression.eval).parameters
 
 
