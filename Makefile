@@ -1,18 +1,38 @@
 # Two commands do all the set-up on a fresh Debian 12 machine:
 #   make demo   install what is missing, then run the main demo
-#   make test   install what is missing, then run the tests (serial, then MPI on 2 ranks)
+#   make test   install what is missing, then run the tests (serial, then MPI on 2 ranks) on
+#               Debian's DOLFINx 0.5.2, then again on DOLFINx 0.11 (the dolfinx-solver-real wheel
+#               from PyPI) in a second venv, if the machine has a Python >= 3.12
 SHELL := /bin/bash
 DEBS := python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba \
         python3-scipy python3-matplotlib python3-pytest python3-venv openmpi-bin
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+# the second stack: its own venv (no system packages) on a Python >= 3.12
+VENV011 := .venv-dolfinx011
+PY011 := $(VENV011)/bin/python
+STAMP011 := $(VENV011)/.installed
+# the first Python >= 3.12 that runs: python3.1N on PATH (a pyenv shim fails unless its version
+# is selected, and is then skipped), else one of pyenv's installed versions; empty if none
+PYTHON312 = $(shell for p in $$(command -v python3.12 python3.13 python3.14) \
+                      $$(ls -d "$$(pyenv root 2>/dev/null)"/versions/3.1[2-9]*/bin/python3 2>/dev/null); do \
+                      "$$p" -c 'import sys; assert sys.version_info >= (3, 12)' 2>/dev/null && { echo "$$p"; break; }; \
+                    done)
 NP ?= 2
-MPIRUN := mpirun -n $(NP) $(if $(filter 0,$(shell id -u)),--allow-run-as-root) --oversubscribe
 OUT ?= out
 export OMP_NUM_THREADS := 1
 
-.PHONY: install demo test test-serial test-mpi bench results meshes clean
+# $(call mpi,PYTHON,ARGS): PYTHON ARGS on $(NP) ranks, started by the launcher of PYTHON's MPI with
+# the flags it needs (Open MPI: --oversubscribe, as root --allow-run-as-root; MPICH: none), see
+# dolfinx_sfvem/mpi_launcher.py
+mpi = launcher="$$($(1) dolfinx_sfvem/mpi_launcher.py -n $(NP))" && $$launcher $(1) $(2)
+# $(call serial-tests,PYTHON) and $(call mpi-tests,PYTHON): the whole suite, the tests marked mpi
+serial-tests = $(1) -m pytest -q -x tests
+mpi-tests = $(call mpi,$(1),-m pytest -q -m mpi -p no:cacheprovider tests)
+
+.PHONY: install install-dolfinx011 demo demo-dolfinx011 test test-serial test-mpi test-dolfinx011 \
+        test-dolfinx011-run bench results meshes clean
 
 install: $(STAMP)
 
@@ -27,16 +47,43 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-demo: $(STAMP)
-	$(MPIRUN) $(PY) demos/cbox.py --method vem --uy -0.5 --steps 25 --out $(OUT)/cbox
+# DOLFINx 0.11: a venv with the dolfinx-solver-real wheel (third-party, alpha) and the package
+install-dolfinx011: $(STAMP011)
 
-test: test-serial test-mpi
+$(STAMP011): pyproject.toml
+	@[ -n "$(PYTHON312)" ] || { echo "install-dolfinx011: no Python >= 3.12 found (see PYTHON312 above)"; exit 1; }
+	[ -x $(PY011) ] || $(PYTHON312) -m venv $(VENV011)
+	$(PY011) -m pip install -q -e ".[wheel,test]"
+	touch $(STAMP011)
+
+DEMO := demos/cbox.py --method vem --uy -0.5 --steps 25 --out $(OUT)/cbox
+
+demo: $(STAMP)
+	$(call mpi,$(PY),$(DEMO))
+
+# the same demo on DOLFINx 0.11 (out/cbox-dolfinx011)
+demo-dolfinx011: $(STAMP011)
+	$(call mpi,$(PY011),$(DEMO)-dolfinx011)
+
+test: test-serial test-mpi test-dolfinx011
 
 test-serial: $(STAMP)
-	$(PY) -m pytest -q -x tests
+	$(call serial-tests,$(PY))
 
 test-mpi: $(STAMP)
-	$(MPIRUN) $(PY) -m pytest -q -m mpi -p no:cacheprovider tests
+	$(call mpi-tests,$(PY))
+
+# the whole suite again on DOLFINx 0.11; one line and nothing else without a Python >= 3.12
+test-dolfinx011:
+	@if [ -z "$(PYTHON312)" ]; then \
+	  echo "test-dolfinx011: skipped, no Python >= 3.12 on this machine (the DOLFINx 0.11 wheel needs one)"; \
+	else \
+	  $(MAKE) --no-print-directory test-dolfinx011-run; \
+	fi
+
+test-dolfinx011-run: $(STAMP011)
+	$(call serial-tests,$(PY011))
+	$(call mpi-tests,$(PY011))
 
 # SFVEM vs P2 FEM up to 1.2e5 unknowns (about 25 min); the summary is kept in bench/results.{json,md}
 bench: $(STAMP)

@@ -67,7 +67,7 @@ INFO_EVENTS = ("MatLUFactorNum", "SNESLineSearch", "SNESSolve")
 
 def patch_setup_stages(timer: instrument.StageTimer, method: str) -> None:
     """Wrap the functions that do the set-up stages of ``method``."""
-    timer.patch(dolfinx.fem, "VectorFunctionSpace", "function_space")
+    timer.patch(dolfinx_sfvem._compat, "vector_function_space", "function_space")
     if method == "vem":
         timer.patch(sf.PolygonMesh, "to_dolfinx", "dolfinx_mesh")
         timer.patch(dolfinx_sfvem.space, "build_projections", "projections")

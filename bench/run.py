@@ -13,7 +13,7 @@ fresh process of ``bench/case.py``, in this order:
 2. per geometry and method, serially: all sizes (set-up, repeated assembly, load path,
    peak memory). Same cache directories, now filled: the first size of the first
    geometry is the warm second start of step 1;
-3. right after each process of step 2, the same geometry and method on 2 ranks (mpirun):
+3. right after each process of step 2, the same geometry and method on 2 MPI ranks:
    the largest size, set-up and repeated assembly, for the MPI speed-up.
 
 Full: sizes up to more than 1e5 SFVEM unknowns; ``--quick``: a few thousand (a few
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib.util
 import json
 import os
 import pathlib
@@ -48,10 +49,15 @@ METHODS = ("vem", "fem")
 RANKS = 2
 
 
-def mpi_launcher(np: int) -> list[str]:
-    """``mpirun -n np`` with Open MPI's ``--oversubscribe`` and, as root, ``--allow-run-as-root``."""
-    root = ["--allow-run-as-root"] if os.geteuid() == 0 else []
-    return ["mpirun", "-n", str(np), *root, "--oversubscribe"]
+def _load_mpi_launcher():
+    """``dolfinx_sfvem/mpi_launcher.py`` without importing the package (it loads DOLFINx)."""
+    spec = importlib.util.spec_from_file_location("mpi_launcher", HERE.parent / "dolfinx_sfvem" / "mpi_launcher.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+mpi_launcher = _load_mpi_launcher()
 
 
 def cache_env(cache: pathlib.Path) -> dict[str, str]:
@@ -83,7 +89,7 @@ class Runner:
         """Run ``case.py`` for one geometry and method; its JSON, with the process wall time added."""
         raw = self.out / "raw" / f"{name}.json"
         raw.unlink(missing_ok=True)
-        cmd = [*(mpi_launcher(np) if np > 1 else []), PYTHON, str(HERE / "case.py"),
+        cmd = [*mpi_launcher.command(np if np > 1 else None, PYTHON), PYTHON, str(HERE / "case.py"),
                "--geometry", geometry, "--method", method, "--h", *map(str, sizes), "--json", str(raw), *options]
         log = self.out / "logs" / f"{name}.log"
         print(f"[bench] {name}: {geometry} {method} h = {', '.join(map(str, sizes))} on {np} rank(s)", flush=True)

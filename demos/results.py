@@ -65,7 +65,7 @@ import time
 import typing
 
 import box_self_contact as box
-from dolfinx_sfvem import compare, post
+from dolfinx_sfvem import compare, mpi_launcher, post
 from dolfinx_sfvem.problem import CHECKPOINT, interrupted
 
 DEMOS = pathlib.Path(__file__).resolve().parent
@@ -288,7 +288,7 @@ def launch(run: Run, root: pathlib.Path, resume: bool, retry_failed: bool) -> in
     """
     out = root / run.out
     where = ("--resume", str(out)) if resume else ("--out", str(out))
-    cmd = [*compare.launcher(run.ranks), sys.executable, str(DEMOS / f"{run.demo}.py"), *run.argv, *where,
+    cmd = [*mpi_launcher.command(run.ranks), sys.executable, str(DEMOS / f"{run.demo}.py"), *run.argv, *where,
            *(("--retry-failed",) if run.sweep and retry_failed else ())]
     (root / "logs").mkdir(parents=True, exist_ok=True)
     # os.environ is Python's start-up copy, without the variables MPI initialisation set (see compare)

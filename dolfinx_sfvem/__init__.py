@@ -1,6 +1,6 @@
 """dolfinx-sfvem: third medium contact with the stabilization-free virtual element method.
 
-Order-2 SFVEM (Xu & Wriggers) on arbitrary polygonal meshes inside DOLFINx 0.5, with the
+Order-2 SFVEM (Xu & Wriggers) on arbitrary polygonal meshes inside DOLFINx (0.5.2 and 0.11), with the
 energy written once in UFL.
 
 Main entry points
@@ -20,6 +20,7 @@ linear_elastic_stiffness
 meshes
     gmsh generators of the paper's geometries.
 """
+from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from . import meshes
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy

@@ -1,21 +1,39 @@
-"""Every call that is specific to DOLFINx 0.5.2 / PETSc 3.18 lives here.
+"""Every call that differs between the supported DOLFINx stacks lives here.
 
-A port to a newer DOLFINx (0.9/0.10) should only need to touch this module:
+Supported: DOLFINx 0.5.2 with PETSc 3.18 (Debian 12) and DOLFINx 0.11 with PETSc 3.25 (the
+``dolfinx-solver-real`` wheel; conda-forge's 0.10/0.11 offer the same API). Each function picks
+its code path by what the installed API offers (an attribute, a parameter name, the generated
+kernel's argument count), never by comparing version strings. The rest of the package calls:
 
-- mesh creation with a user-given cell partitioner,
-- the mapping of local cells / geometry nodes back to their input indices,
-- JIT compilation of a UFL expression into a C function pointer (FFCx),
-- PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES
-  domain errors), called through ctypes on the object handles,
-- for the P2 FEM reference: mesh creation with DOLFINx's own partitioner, cell
-  tags, vector spaces, basix quadrature rules and compiled expressions.
+- mesh creation with a user-given cell distribution (:func:`create_triangle_mesh`) or DOLFINx's
+  own partitioner (:func:`create_mesh_partitioned`), the ufl domain of an affine mesh
+  (:func:`coordinate_domain`), and the maps of local cells / geometry nodes / dofs back to their
+  input indices,
+- vector spaces, index maps and ghosted PETSc vectors (:func:`vector_function_space`,
+  :func:`create_index_map`, :func:`create_petsc_vector`), ``atan2`` in UFL,
+- JIT compilation of a UFL expression into a C function and the call of that function from
+  Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`),
+- PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES domain errors), called
+  through ctypes on the object handles, and option defaults that keep PETSc's behaviour
+  (:data:`PETSC_OPTION_DEFAULTS`),
+- for the P2 FEM reference: cell and facet tags, basix quadrature rules and compiled expressions.
+
+With the ``dolfinx-solver-real`` wheel, ``dolfinx_solver`` must be imported before any
+dolfinx or petsc4py import (it loads the wheel's MPI library first); this module does so, and
+``import dolfinx_sfvem`` imports this module first.
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
-import ctypes.util
 import functools
+import inspect
 
+with contextlib.suppress(ImportError):
+    import dolfinx_solver  # noqa: F401  (the dolfinx-solver-* wheels: MPI before the bindings)
+
+import numba
+import numba.extending
 import numpy as np
 import numpy.typing as npt
 import ufl
@@ -27,7 +45,13 @@ import dolfinx
 import dolfinx.cpp
 import dolfinx.fem
 import dolfinx.jit
+import dolfinx.la
 import dolfinx.mesh
+
+try:
+    import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)
+except ImportError:
+    _basix_ufl = None
 
 DOLFINX_VERSION = dolfinx.__version__
 
@@ -58,6 +82,53 @@ def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.
     return data, offsets
 
 
+#: whether ``dolfinx.mesh.create_mesh`` takes ``(comm, cells, x, domain, ghost_mode, partitioner)``
+#: with a partitioner ``(comm, n_parts, tdim, graph, ghost_mode)`` (DOLFINx 0.5); DOLFINx 0.11 takes
+#: ``(comm, cells, e, x, partitioner)`` with a partitioner ``(comm, n_parts, cell_types, cells)``
+#: that carries the ghost mode
+_CREATE_MESH_TAKES_GHOST_MODE = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
+
+
+def coordinate_domain(cell: str) -> ufl.Mesh:
+    """The ufl domain of an affine mesh in 2D of ``cell`` s (``"triangle"`` or ``"quadrilateral"``)."""
+    if _basix_ufl is None:             # UFL's own elements (DOLFINx 0.5)
+        return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
+    return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(2,)))
+
+
+def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], cell: str,
+                 ghost_mode: dolfinx.mesh.GhostMode,
+                 destinations: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None
+                 ) -> dolfinx.mesh.Mesh:
+    """Distributed affine mesh of ``cell`` s.
+
+    Parameters
+    ----------
+    cells, x
+        Input cells (indices into ``x``, DOLFINx's vertex order) and node coordinates of this rank.
+    ghost_mode
+        Ghost cells of DOLFINx's graph partitioner (ignored with ``destinations``).
+    destinations
+        CSR (data, offsets) of the ranks of each input cell: owner first, then the ranks that
+        hold it as a ghost; None for DOLFINx's graph partitioner.
+    """
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    domain = coordinate_domain(cell)
+    if destinations is not None:
+        adjacency = dolfinx.cpp.graph.AdjacencyList_int32(*destinations)
+
+        def partitioner(*_args):       # the arguments differ between versions and are not needed
+            return adjacency
+    elif _CREATE_MESH_TAKES_GHOST_MODE:
+        partitioner = dolfinx.mesh.create_cell_partitioner()      # given the ghost mode by create_mesh
+    else:
+        partitioner = dolfinx.mesh.create_cell_partitioner(ghost_mode, 2)
+    if _CREATE_MESH_TAKES_GHOST_MODE:
+        return dolfinx.mesh.create_mesh(comm, cells, x, domain, ghost_mode=ghost_mode, partitioner=partitioner)
+    return dolfinx.mesh.create_mesh(comm, cells, domain, x, partitioner=partitioner)
+
+
 def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
                          destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
     """Create a distributed affine triangle mesh with a prescribed cell distribution.
@@ -86,22 +157,16 @@ def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.ND
     with ``GhostMode.none``, silently yields disconnected pieces. So in parallel every
     cell is also sent, as a ghost, to the owners of its facet neighbours.
     """
-    cells = np.ascontiguousarray(cells, dtype=np.int64)
     owner = np.ascontiguousarray(destinations, dtype=np.int32)
+    if owner.shape != (len(cells),):
+        raise ValueError(f"one destination per input cell expected: {owner.shape} for {len(cells)} cells")
     if comm.size == 1:
-        data, offsets = owner, np.arange(owner.size + 1, dtype=np.int32)
+        csr = owner, np.arange(owner.size + 1, dtype=np.int32)
         ghost_mode = dolfinx.mesh.GhostMode.none
     else:
-        data, offsets = _facet_ghost_destinations(cells, owner)
+        csr = _facet_ghost_destinations(np.asarray(cells, dtype=np.int64), owner)
         ghost_mode = dolfinx.mesh.GhostMode.shared_facet
-
-    def partitioner(_comm, n_parts, tdim, graph, _ghost_mode):
-        assert graph.num_nodes == owner.size
-        return dolfinx.cpp.graph.AdjacencyList_int32(data, offsets)
-
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
-    return dolfinx.mesh.create_mesh(comm, cells, np.ascontiguousarray(x, dtype=np.float64), domain,
-                                    ghost_mode=ghost_mode, partitioner=partitioner)
+    return _create_mesh(comm, cells, x, "triangle", ghost_mode, csr)
 
 
 def num_owned_cells(mesh: dolfinx.mesh.Mesh) -> int:
@@ -119,59 +184,166 @@ def input_node_index(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int64]:
     return np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
 
 
+def _rows(table) -> npt.NDArray[np.int32]:
+    """A 2D array of a fixed-width table: an ndarray (DOLFINx 0.11) or an AdjacencyList (0.5)."""
+    if isinstance(table, np.ndarray):
+        return table
+    return table.array.reshape(table.num_nodes, -1)
+
+
 def cell_geometry_nodes(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int32]:
     """Geometry node indices of each local cell, shape (n_local_cells, 3 or 4), in DOLFINx's
     vertex order (:data:`COUNTER_CLOCKWISE` turns it counter-clockwise)."""
-    dofmap = mesh.geometry.dofmap
-    return dofmap.array.reshape(dofmap.num_nodes, -1)
+    geometry = mesh.geometry
+    return _rows(geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap)
 
 
 def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
     """Blocked dof (node) indices of each local cell of a Lagrange space, shape (n_cells, n_dofs)."""
-    dm = V.dofmap
-    return dm.list.array.reshape(dm.list.num_nodes, -1)
+    return _rows(V.dofmap.list)
+
+
+# --------------------------------------------------------------------------- spaces, vectors, UFL
+def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+    """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
+    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx 0.11
+        return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
+    return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+
+
+#: MPI tag of the messages DOLFINx 0.11 exchanges while it builds an index map (any tag works: the
+#: construction is collective and completes before it returns)
+_INDEX_MAP_TAG = 1
+
+
+def create_index_map(comm: MPI.Comm, n_owned: int, ghosts: npt.NDArray[np.int64],
+                     ghost_owners: npt.NDArray[np.int32]) -> dolfinx.cpp.common.IndexMap:
+    """Index map of ``n_owned`` owned indices and the given ghosts (global indices, owner ranks)."""
+    args = (comm, n_owned, np.ascontiguousarray(ghosts, dtype=np.int64),
+            np.ascontiguousarray(ghost_owners, dtype=np.int32))
+    try:
+        return dolfinx.cpp.common.IndexMap(*args, _INDEX_MAP_TAG)
+    except TypeError:                   # DOLFINx 0.5 takes no tag
+        return dolfinx.cpp.common.IndexMap(*args)
+
+
+def _petsc_vector_function():
+    """DOLFINx's function creating a ghosted PETSc vector, called as ``f(index_map, bs)``."""
+    if hasattr(dolfinx.la, "create_petsc_vector"):    # DOLFINx 0.5
+        return dolfinx.la.create_petsc_vector
+    from dolfinx.la.petsc import create_vector as create
+    if "maps" in inspect.signature(create).parameters:     # DOLFINx 0.11: a list of (map, bs) pairs
+        return lambda index_map, bs: create([(index_map, bs)])
+    return create
+
+
+_create_petsc_vector = _petsc_vector_function()
+
+
+def create_petsc_vector(index_map: dolfinx.cpp.common.IndexMap, bs: int) -> PETSc.Vec:
+    """Ghosted PETSc vector of ``index_map`` with block size ``bs`` (values not initialised)."""
+    return _create_petsc_vector(index_map, bs)
+
+
+def atan2(y: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    """``atan2(y, x)`` in UFL (``ufl.atan_2`` in UFL 2022, DOLFINx 0.5's)."""
+    return ufl.atan2(y, x) if hasattr(ufl, "atan2") else ufl.atan_2(y, x)
 
 
 # --------------------------------------------------------------------------- JIT
-_KERNEL_SIGNATURE = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
-                                     ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
-
-
 def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr):
     """Compile a spatially constant UFL expression of ``ufl.Constant`` s with FFCx.
 
     The generated C function has the ufcx signature
     ``void f(double* A, const double* w, const double* c, const double* x,
-    const int* entity_local_index, const uint8_t* perm)``; it *adds* the
-    expression's flattened (row-major) components to ``A``. ``c`` holds the
-    constants that survive derivative expansion, in UFL count order; pass a single
-    vector Constant to keep the packing explicit.
+    const int* entity_local_index, const uint8_t* perm[, void* custom_data])`` (the last
+    argument in the ufcx of DOLFINx 0.11, not of 0.5); it *adds* the expression's flattened
+    (row-major) components to ``A``. ``c`` holds the constants that survive derivative
+    expansion, in UFL count order; pass a single vector Constant to keep the packing explicit.
+    Call it with :func:`call_kernel`.
 
     Returns
     -------
     (function, module)
-        A ctypes function (callable from numba nopython code) and the
-        compiled module (keep it alive as long as the function is used).
+        A ctypes function with the generated function's argument count (callable from numba
+        nopython code) and the compiled module (keep it alive as long as the function is used).
     """
     point = np.zeros((1, 2))
     compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
-    address = int(module.ffi.cast("uintptr_t", compiled.tabulate_tensor_float64))
-    return _KERNEL_SIGNATURE(address), module
+    tabulate = compiled.tabulate_tensor_float64
+    prototype = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * len(module.ffi.typeof(tabulate).args))
+    return prototype(int(module.ffi.cast("uintptr_t", tabulate))), module
+
+
+@numba.njit(cache=True)
+def kernel_scratch():
+    """The arrays :func:`call_kernel` passes for the arguments a pointwise kernel does not read:
+    coefficients w, coordinates x, entity index, quadrature permutation, custom data."""
+    return (np.zeros(1), np.zeros(9), np.zeros(1, dtype=np.int32), np.zeros(1, dtype=np.uint8),
+            np.zeros(1, dtype=np.uint8))
+
+
+def call_kernel(kernel, out: npt.NDArray[np.float64], c: npt.NDArray[np.float64], scratch: tuple) -> None:
+    """Call a kernel of :func:`compile_pointwise_expression`: add its output to ``out``.
+
+    Parameters
+    ----------
+    kernel
+        The ctypes function.
+    out : (n,) float64
+        Output, added to.
+    c : (n_constants,) float64
+        The constants (contiguous).
+    scratch
+        :func:`kernel_scratch` ()'s arrays.
+
+    Callable from Python and from numba nopython code; both pass as many arguments as the
+    generated function takes.
+    """
+    w, x, entity, perm, data = scratch
+    arguments = (out, w, c, x, entity, perm, data)[:len(kernel.argtypes)]
+    kernel(*[a.ctypes.data for a in arguments])
+
+
+@numba.extending.overload(call_kernel)
+def _call_kernel_nopython(kernel, out, c, scratch):
+    """:func:`call_kernel` in numba code: the call that matches the kernel's argument count."""
+    if len(kernel.sig.args) == 7:
+        def call(kernel, out, c, scratch):
+            w, x, entity, perm, data = scratch
+            kernel(out.ctypes, w.ctypes, c.ctypes, x.ctypes, entity.ctypes, perm.ctypes, data.ctypes)
+        return call
+    if len(kernel.sig.args) == 6:
+        def call(kernel, out, c, scratch):
+            w, x, entity, perm, _ = scratch
+            kernel(out.ctypes, w.ctypes, c.ctypes, x.ctypes, entity.ctypes, perm.ctypes)
+        return call
+    return None
 
 
 # --------------------------------------------------------------------------- PETSc
 @functools.lru_cache(maxsize=None)
 def _libpetsc() -> ctypes.CDLL:
-    for name in ("petsc_real", "petsc"):
-        path = ctypes.util.find_library(name)
-        if path:
-            lib = ctypes.CDLL(path)
-            lib.MatSetPreallocationCOO.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p,
-                                                   ctypes.c_void_p]
-            lib.MatSetValuesCOO.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
-            lib.SNESSetFunctionDomainError.argtypes = [ctypes.c_void_p]
-            return lib
-    raise RuntimeError("cannot locate the PETSc shared library")
+    """The PETSc library of the loaded petsc4py.
+
+    The handle of petsc4py's extension module resolves PETSc's symbols through the module's
+    own dependencies, so another libpetsc on the library path (Debian's beside a wheel's) is
+    never loaded into the process.
+    """
+    lib = ctypes.CDLL(PETSc.__file__)
+    lib.MatSetPreallocationCOO.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p]
+    lib.MatSetValuesCOO.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
+    lib.SNESSetFunctionDomainError.argtypes = [ctypes.c_void_p]
+    return lib
+
+
+#: Option defaults that keep PETSc 3.18's behaviour on later PETSc (solver defaults: options given on
+#: the command line or from Python win). Since PETSc 3.24 the ``l2`` line search (renamed ``secant``)
+#: also stops when |d||F||^2/dlambda| <= ``snes_linesearch_atol`` (default 1e-15), which changes
+#: Newton iteration counts; PETSc 3.18's ``l2`` does not read that tolerance.
+PETSC_OPTION_DEFAULTS: dict[str, str] = (
+    {"snes_linesearch_atol": "0"}
+    if hasattr(getattr(getattr(PETSc, "SNESLineSearch", None), "Type", None), "SECANT") else {})
 
 
 def _check(err: int, what: str) -> None:
@@ -199,8 +371,8 @@ def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
 
 
 # --------------------------------------------------------------------------- P2 FEM reference
-#: vertex count -> the ufl cell of an affine mesh of such cells
-_UFL_CELL = {3: ufl.triangle, 4: ufl.quadrilateral}
+#: vertex count -> the cell of an affine mesh of such cells
+_CELL = {3: "triangle", 4: "quadrilateral"}
 #: vertex count -> the columns that put DOLFINx's cell vertices counter-clockwise (DOLFINx
 #: numbers a quadrilateral's vertices in tensor-product order: (0, 0), (1, 0), (0, 1), (1, 1));
 #: the permutation is its own inverse
@@ -224,12 +396,10 @@ def create_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt
         facet integrals need; otherwise no ghost cells.
     """
     n_vertices = cells.shape[1]
-    if n_vertices not in _UFL_CELL:
+    if n_vertices not in _CELL:
         raise ValueError(f"cells must have 3 or 4 vertices, not {n_vertices}")
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", _UFL_CELL[n_vertices], 1))
     ghost_mode = dolfinx.mesh.GhostMode.shared_facet if ghost_facet_neighbours else dolfinx.mesh.GhostMode.none
-    return dolfinx.mesh.create_mesh(comm, np.ascontiguousarray(cells[:, COUNTER_CLOCKWISE[n_vertices]], dtype=np.int64),
-                                    np.ascontiguousarray(x, dtype=np.float64), domain, ghost_mode=ghost_mode)
+    return _create_mesh(comm, cells[:, COUNTER_CLOCKWISE[n_vertices]], x, _CELL[n_vertices], ghost_mode)
 
 
 def interior_facets(mesh: dolfinx.mesh.Mesh) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
@@ -256,18 +426,16 @@ def create_cell_tags(mesh: dolfinx.mesh.Mesh, values: npt.NDArray[np.int32]):
     return dolfinx.mesh.meshtags(mesh, mesh.topology.dim, cells, np.ascontiguousarray(values, dtype=np.int32))
 
 
-def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
-    """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
-    return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
-
-
 def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int
                          ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Basix's default rule on the reference cell of ``mesh`` exact for ``degree`` (the rule FFCx
     uses for ``metadata={"quadrature_degree": degree}``): points (n, 2) and weights (n,)."""
-    cell = basix.cell.string_to_type(mesh.topology.cell_type.name)
-    points, weights = basix.make_quadrature(cell, degree)
+    points, weights = basix.make_quadrature(getattr(basix.CellType, mesh.topology.cell_type.name), degree)
     return np.asarray(points), np.asarray(weights)
+
+
+#: whether ``Expression.eval`` takes the mesh (DOLFINx 0.11)
+_EVAL_TAKES_MESH = "mesh" in inspect.signature(dolfinx.fem.Expression.eval).parameters
 
 
 class CompiledExpression:
@@ -275,10 +443,10 @@ class CompiledExpression:
 
     def __init__(self, expression: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64]):
         self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
-        self._mesh = mesh               # DOLFINx >= 0.7 takes it in eval
+        self._mesh_argument = (mesh,) if _EVAL_TAKES_MESH else ()
         self._n_points = points.shape[0]
 
     def __call__(self, cells: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
         """Values (n_cells, n_points, value_size) on the local ``cells``."""
-        values = self._expression.eval(np.ascontiguousarray(cells, dtype=np.int32))
+        values = self._expression.eval(*self._mesh_argument, np.ascontiguousarray(cells, dtype=np.int32))
         return values.reshape(cells.size, self._n_points, -1)

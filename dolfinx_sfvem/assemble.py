@@ -26,6 +26,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ._compat import call_kernel, kernel_scratch
 from .monomials import evaluate_monomials
 
 #: fast-math flags of the contraction loops: FMA and reassociated sums (vectorisable);
@@ -75,12 +76,6 @@ def _monomial_scratch(l):
     k = max(l.max() if l.size else 2, 2)
     n = (k + 1) * (k + 2) // 2
     return np.empty(n), np.empty((2, n))
-
-
-@numba.njit(cache=True)
-def _ufcx_arguments():
-    """The unused coefficient, coordinate, entity and permutation arguments of a ufcx kernel."""
-    return np.zeros(1), np.zeros(9), np.zeros(1, dtype=np.int32), np.zeros(1, dtype=np.uint8)
 
 
 @numba.njit(cache=True)
@@ -188,7 +183,7 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
         In/out: [energy Σ w Ψ, min J, local polygon index of min J].
     """
     out = np.zeros(13)
-    w_, x_, ei, perm = _ufcx_arguments()
+    scratch = kernel_scratch()
     nphi = 6 if uses_gradient else 2
     for e in polygons:
         d0 = dof_off[e]
@@ -203,7 +198,7 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
                 stats[1] = J
                 stats[2] = e
             out[:] = 0.0
-            kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
+            call_kernel(kernel, out, c, scratch)
             w = w_q[q_off[e] + q]
             stats[0] += w * out[0]
             for i in range(2):
@@ -266,7 +261,7 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
     entries b < a of the pairs (0, 0) and (1, 1) are mirrored, not integrated.
     """
     out = np.zeros(112)
-    w_, x_, ei, perm = _ufcx_arguments()
+    scratch = kernel_scratch()
     nphi = 6 if uses_gradient else 2
     for e in polygons:
         d0 = dof_off[e]
@@ -278,7 +273,7 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
         for q in range(nq):
             _set_deformation(grad, q, nphi, c, F_at, G_at)
             out[:] = 0.0
-            kernel(out.ctypes, w_.ctypes, c.ctypes, x_.ctypes, ei.ctypes, perm.ctypes)
+            call_kernel(kernel, out, c, scratch)
             _tangent_blocks(out, D_at, A_at, B_at, uses_gradient, w_q[q_off[e] + q], q, CC)
         block = values[coo_off[e]:coo_off[e] + 4 * nd * nd].reshape(nd, 2, nd, 2)
         W = np.empty((nd, nq * nphi))

@@ -5,7 +5,7 @@ Usage::
     python3 -m dolfinx_sfvem.compare cbox [--np N] [--out DIR] [demo options ...]
 
 runs ``demos/<demo>.py --method vem --out DIR/vem ...`` and ``... --method fem --out
-DIR/fem ...`` one after the other (each under ``mpirun -n N`` with ``--np N``), passing
+DIR/fem ...`` one after the other (each on N MPI ranks with ``--np N``, see :mod:`.mpi_launcher`), passing
 every other option (the demo's own and PETSc's) through unchanged, the FEM's own options
 (``--fem-NAME VALUE``, e.g. ``--fem-cells triangles``) to the FEM run only, reads the two
 ``summary.json`` files and prints a table: unknowns, load factor reached, the reaction of
@@ -29,22 +29,13 @@ import sys
 import time
 import typing
 
-from . import post
+from . import mpi_launcher, post
 
 METHODS = ("vem", "fem")
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
 #: one row of the table: quantity, SFVEM value, FEM value, relative difference (or None)
 Row = tuple[str, typing.Any, typing.Any, typing.Optional[float]]
-
-
-def launcher(np: int | None, mpiexec: str = "mpirun") -> list[str]:
-    """Command prefix running a program on ``np`` MPI ranks (nothing for None); Open MPI's flags
-    ``--oversubscribe`` and, as root, ``--allow-run-as-root`` (as the Makefile)."""
-    if np is None:
-        return []
-    root = ["--allow-run-as-root"] if hasattr(os, "geteuid") and os.geteuid() == 0 else []
-    return [mpiexec, "-n", str(np), *root, "--oversubscribe"]
 
 
 def split_fem_options(options: typing.Sequence[str]) -> tuple[list[str], list[str]]:
@@ -169,8 +160,9 @@ def parser() -> argparse.ArgumentParser:
                                        "--fem-NAME VALUE to the FEM run only.")
     p.add_argument("demo", help="demo name: demos/<demo>.py (e.g. cbox)")
     p.add_argument("--out", type=pathlib.Path, default=None, help="output directory (default out/compare/<demo>)")
-    p.add_argument("--np", type=int, default=None, help="run each method under mpirun with this many ranks")
-    p.add_argument("--mpiexec", default="mpirun", help="MPI launcher (default %(default)s)")
+    p.add_argument("--np", type=int, default=None, help="run each method on this many MPI ranks")
+    p.add_argument("--mpiexec", default=None,
+                   help="MPI launcher (default: mpiexec beside this Python, else mpiexec/mpirun on PATH)")
     p.add_argument("--demos", type=pathlib.Path, default=DEMOS,
                    help="directory of the demo scripts (default %(default)s)")
     return p
@@ -192,7 +184,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     for method in METHODS:
         codes[method], walls[method] = run_demo(script, method, out / method,
                                                 common + (fem_only if method == "fem" else []),
-                                                launcher(args.np, args.mpiexec))
+                                                mpi_launcher.command(args.np, launcher=args.mpiexec))
         path = out / method / "summary.json"
         if not path.is_file():
             print(f"error: the {method} run wrote no {path} (exit code {codes[method]}); see {out / f'{method}.log'}",

@@ -21,6 +21,8 @@ from collections.abc import Callable, Hashable, Mapping
 import ufl
 from ufl.core.expr import Expr
 
+from . import _compat
+
 #: A parameter's admissible range: ``(bound, strict)`` means value > bound (strict)
 #: or value >= bound; ``None`` admits every finite real number.
 Bound = tuple[float, bool] | None
@@ -62,11 +64,11 @@ def neo_hookean(F: Expr, K: Expr, mu: Expr) -> Expr:
 def rotation_angle(F: Expr) -> Expr:
     """Rotation angle of Eq. 12, ``phi = atan((F12 - F21) / (F11 + F22))``.
 
-    Written with ``atan_2``: it has the same derivative wherever the quotient is
+    Written with ``atan2``: it has the same derivative wherever the quotient is
     defined and stays finite when ``F11 + F22 = 0``. (Eq. 12 as printed gives minus
     the polar rotation angle of ``F``; only ``grad phi . grad phi`` enters Psi_r.)
     """
-    return ufl.atan_2(F[0, 1] - F[1, 0], F[0, 0] + F[1, 1])
+    return _compat.atan2(F[0, 1] - F[1, 0], F[0, 0] + F[1, 1])
 
 
 def tan_rotation_angle(F: Expr) -> Expr:

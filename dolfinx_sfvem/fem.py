@@ -45,7 +45,6 @@ from petsc4py import PETSc
 import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
-import dolfinx.la
 
 from . import _compat, post
 from .energy import Energy
@@ -335,7 +334,7 @@ class P2Discretization:
     # ------------------------------------------------------------------ PETSc objects
     def create_vector(self) -> PETSc.Vec:
         """A ghosted PETSc vector of the P2 unknowns (block size 2, local index 2 node + component)."""
-        return dolfinx.la.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.index_map_bs)
+        return _compat.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.index_map_bs)
 
     def create_matrix(self) -> PETSc.Mat:
         """AIJ matrix with the sparsity of the tangent form (the pattern survives zeroed rows)."""

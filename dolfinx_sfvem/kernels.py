@@ -2,8 +2,8 @@
 
 ``P = dPsi/dF``, ``T = dPsi/dG``, ``D = dP/dF``, ``A = dT/dF``, ``B = dT/dG`` are taken
 by ``ufl.diff`` on ``ufl.variable`` s F and G and compiled by FFCx into two C
-functions of the ufcx signature ``f(out, w, c, x, entity_local_index, perm)``
-(callable from numba, see :func:`dolfinx_sfvem._compat.compile_pointwise_expression`):
+functions of the ufcx signature ``f(out, w, c, x, entity_local_index, perm[, custom_data])``
+(called from Python and numba through :func:`dolfinx_sfvem._compat.call_kernel`):
 
 ========  ==========================  ==============================  ======
 function  ``uses_gradient``           output layout (row-major)       size
@@ -30,7 +30,6 @@ different packings (e.g. a parameter that only scales an F-independent term of P
 """
 from __future__ import annotations
 
-import ctypes
 import math
 from collections.abc import Callable, Hashable, Mapping
 
@@ -42,7 +41,7 @@ from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
 from ufl.algorithms.apply_derivatives import apply_derivatives
 from ufl.core.expr import Expr
 
-from dolfinx_sfvem._compat import compile_pointwise_expression
+from dolfinx_sfvem._compat import call_kernel, compile_pointwise_expression, coordinate_domain, kernel_scratch
 from dolfinx_sfvem.energy import Energy
 
 #: Shape of each pointwise quantity (Eqs. 30, 32); kernels return them flattened row-major.
@@ -53,10 +52,7 @@ F_OFFSET = 0
 G_OFFSET = 4
 PARAM_OFFSET = 12
 
-_NO_W = np.zeros(1)
-_NO_X = np.zeros(3)
-_NO_ENTITY = np.zeros(1, dtype=np.int32)
-_NO_PERM = np.zeros(1, dtype=np.uint8)
+_SCRATCH = kernel_scratch()
 
 
 def _size(name: str) -> int:
@@ -156,7 +152,7 @@ def _is_zero(expression: Expr) -> bool:
 
 
 def _compile(energy: Energy, comm: MPI.Comm) -> EnergyKernels:
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    domain = coordinate_domain("triangle")
     c = ufl.Constant(domain, shape=(PARAM_OFFSET + len(energy.param_names),))
     F = ufl.variable(_block(c, F_OFFSET, SHAPES["P"]))
     G = ufl.variable(_block(c, G_OFFSET, SHAPES["T"]))
@@ -210,8 +206,7 @@ def tabulate(function: Callable, size: int, c: npt.NDArray[np.float64]) -> npt.N
     """
     out = np.zeros(size)
     c = np.ascontiguousarray(c, dtype=np.float64)
-    function(out.ctypes.data, _NO_W.ctypes.data, c.ctypes.data, _NO_X.ctypes.data, _NO_ENTITY.ctypes.data,
-             _NO_PERM.ctypes.data)
+    call_kernel(function, out, c, _SCRATCH)
     return out
 
 

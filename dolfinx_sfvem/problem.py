@@ -24,7 +24,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import post
+from . import _compat, post
 from .contact import OVERLAP_TOLERANCE, Gap, SolidBoundary
 from .energy import Energy
 from .mesh import PolygonMesh
@@ -478,7 +478,7 @@ class _RunWriter:
         problem.comm.barrier()
         mesh = problem.disc.dolfinx_mesh
         self.u_p2 = None
-        self.u_p1 = dolfinx.fem.Function(dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", 1)), name="u")
+        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(mesh, 1), name="u")
         self.xdmf_path = self.out / "displacement.xdmf"
         self.xdmf_started = append and self._readable_xdmf()
 

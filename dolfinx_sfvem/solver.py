@@ -51,6 +51,7 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
     "ksp_type": "preonly",
     "pc_type": "lu",
     "pc_factor_mat_solver_type": "mumps",
+    **_compat.PETSC_OPTION_DEFAULTS,
 }
 #: the default ``snes_atol`` in units of the round-off level ``eps * F_c`` of the residual (module docstring)
 ATOL_ROUNDOFF_FACTOR = 1e4

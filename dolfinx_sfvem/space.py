@@ -23,9 +23,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
-import dolfinx.cpp
 import dolfinx.fem
-import dolfinx.la
 
 from . import _compat
 from .mesh import PolygonMesh
@@ -158,7 +156,7 @@ class VEMSpace:
         self.polygon_mesh = mesh
         self.comm = comm
         self.mesh, cell_polygon = mesh.to_dolfinx(comm)
-        self.V = dolfinx.fem.VectorFunctionSpace(self.mesh, ("Lagrange", 2))
+        self.V = _compat.vector_function_space(self.mesh, 2)
         self._cell_polygon = cell_polygon[:_compat.num_owned_cells(self.mesh)]   # ghost cells dropped
         self.polygons = np.unique(self._cell_polygon).astype(np.int64)
         self.tags = mesh.tags[self.polygons]
@@ -235,7 +233,7 @@ class VEMSpace:
         ghosts = n_owned_p2 + np.flatnonzero(is_sfvem[n_owned_p2:])
         offset = self.comm.exscan(owned.size) or 0
 
-        global_index = dolfinx.la.create_petsc_vector(im, 1)
+        global_index = _compat.create_petsc_vector(im, 1)
         with global_index.localForm() as g:
             g.set(-1.0)
             g.array[owned] = offset + np.arange(owned.size)
@@ -246,7 +244,7 @@ class VEMSpace:
         if np.any(ghost_global < 0):
             raise RuntimeError("SFVEM ghost node not owned by any rank")
         ghost_owners = np.asarray(im.owners, dtype=np.int32)[ghosts - n_owned_p2]
-        self.index_map = dolfinx.cpp.common.IndexMap(self.comm, owned.size, ghost_global, ghost_owners)
+        self.index_map = _compat.create_index_map(self.comm, owned.size, ghost_global, ghost_owners)
 
         self.p2_node = np.concatenate([owned, ghosts])           # SFVEM node -> local P2 node
         sfvem_of_p2 = np.full(n_local_p2, -1, dtype=np.int64)
@@ -279,7 +277,7 @@ class VEMSpace:
 
     def create_vector(self) -> PETSc.Vec:
         """A ghosted PETSc vector of SFVEM unknowns (block size 2)."""
-        return dolfinx.la.create_petsc_vector(self.index_map, 2)
+        return _compat.create_petsc_vector(self.index_map, 2)
 
     # ------------------------------------------------------------------ location
     def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
@@ -313,7 +311,7 @@ class VEMSpace:
 
     def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
         """Max-combine a per-node indicator over all ranks that hold the node."""
-        vec = dolfinx.la.create_petsc_vector(self.index_map, 1)
+        vec = _compat.create_petsc_vector(self.index_map, 1)
         with vec.localForm() as v:
             v.array[:] = node_values
         vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)

@@ -3,20 +3,26 @@
 - Smooth finite-strain problem without contact: a Hyperelastic unit square whose boundary
   displacement is the trace of a smooth field (shear and compression, J down to ~0.4).
   The discrete energies of both methods converge to the same value; their difference
-  falls like ~h^4 (measured rate 4.0 over h = 0.2, 0.1, 0.05).
+  falls like ~h^4 (measured rate 4.0 over h = 0.2, 0.1, 0.05). The meshes (polygons, and
+  triangles with matched unknowns) are read from ``data/``: gmsh 4.8 made them (written by
+  ``data/make_reference.py --meshes``), and other gmsh versions give other meshes.
 - C-box (paper §5.2) at u_y = -0.3 at matched unknowns: the reaction at the load point.
 - The comparison tool (``python -m dolfinx_sfvem.compare``) on a stand-in demo.
 """
 import json
+import pathlib
 import textwrap
 
 import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import compare
+from dolfinx_sfvem import compare, meshes
 
 SHEAR, COMPRESSION = 0.2, -0.15
+DATA = pathlib.Path(__file__).resolve().parent / "data"
+#: sizes h of the stored unit-square meshes
+SQUARE_SIZES = (0.2, 0.1, 0.05)
 
 
 def boundary_field(x, component):
@@ -28,10 +34,18 @@ def on_boundary(x):
     return np.isclose(x[0], 0.0) | np.isclose(x[0], 1.0) | np.isclose(x[1], 0.0) | np.isclose(x[1], 1.0)
 
 
+def square_mesh_paths(h: float) -> tuple[pathlib.Path, pathlib.Path]:
+    """The stored unit-square meshes of size h: polygons (``meshes.polygon_rectangle``) and their
+    triangulation with matched P2 unknowns (``remesh.matched_triangulation``)."""
+    return DATA / f"square-h{h}.npz", DATA / f"square-h{h}-fem.npz"
+
+
 def smooth_energy(method: str, h: float) -> float:
     """Stored energy of the solution on the polygon mesh of size h (FEM: matched unknowns)."""
-    mesh = sf.meshes.polygon_rectangle(1.0, 1.0, h, tag=1)
-    problem = sf.ContactProblem(mesh, {1: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, method=method, verbose=False)
+    polygons, triangles = map(meshes.read_polygons, square_mesh_paths(h))
+    fem = {"fem_mesh": triangles} if method == "fem" else {}
+    problem = sf.ContactProblem(polygons, {1: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, method=method, verbose=False,
+                                **fem)
     problem.prescribe(on_boundary, ux=lambda x: boundary_field(x, 0), uy=lambda x: boundary_field(x, 1),
                       name="boundary")
     assert problem.solve(steps=2).converged
@@ -42,7 +56,7 @@ def smooth_energy(method: str, h: float) -> float:
 
 @pytest.mark.mpi
 def test_smooth_hyperelastic_energies_converge_together():
-    hs = np.array([0.2, 0.1, 0.05])
+    hs = np.array(SQUARE_SIZES)
     vem = np.array([smooth_energy("vem", h) for h in hs])
     fem = np.array([smooth_energy("fem", h) for h in hs])
     difference = np.abs(vem - fem) / fem

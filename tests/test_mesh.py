@@ -8,6 +8,7 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import ufl
+from dolfinx_sfvem import _compat
 from dolfinx_sfvem.mesh import PolygonMesh
 from dolfinx_sfvem.polygon import RTOL, triangulate
 
@@ -467,7 +468,7 @@ def _check_dolfinx_mesh(mesh, comm):
     cell_polygon = cell_polygon[:n_local]
     # every local cell lies in the polygon it is mapped to, and on that polygon's rank
     x = dmesh.geometry.x[:, :2]
-    cells = dmesh.geometry.dofmap.array.reshape(-1, 3)[:n_local]
+    cells = _compat.cell_geometry_nodes(dmesh)[:n_local]
     centres = x[cells].mean(axis=1)
     for c, p in zip(centres, cell_polygon):
         assert Path(mesh.polygon_coordinates(p)).contains_point(c)
