@@ -61,7 +61,6 @@ def assembly_info(problem: sf.ContactProblem):
     return problem.disc.residual(problem.x, problem.disc.create_vector())
 
 
-@pytest.mark.mpi
 def test_sfvem_guard_catches_a_fold_that_J_at_the_quadrature_points_misses():
     """A regular octagon whose vertex (1, 0) is pushed past its neighbour's edge: J > 0 at every
     quadrature point, but the deformed boundary crosses itself."""
