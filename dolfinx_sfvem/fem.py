@@ -49,7 +49,7 @@ import dolfinx.fem.petsc
 from . import _compat, post
 from .energy import Energy
 from .mesh import PolygonMesh
-from .injectivity import folded_elements, gather_folded
+from .injectivity import folded_elements, gather_count
 from .remesh import matched_triangulation, sfvem_unknowns, triangulate
 from .vem import AssemblyInfo, check_materials
 
@@ -360,11 +360,12 @@ class P2Discretization:
         where = (int(self._cell_input_index[cell]), int(self.cell_tag[cell])) if cell >= 0 else (-1, -1)
         polygon, tag = self.comm.bcast(where, root=rank)
         with x.localForm() as xl:
-            folded = folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
+            folded, kinked = folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
                                      self._owned_cells.astype(np.int64), self._solid)
         folded |= self._solid & ~(J_nodes.min(axis=1, initial=np.inf) > 0.0)
         return AssemblyInfo(float(energy), float(min_J), polygon, tag,
-                            *gather_folded(self.comm, folded, self._cell_input_index[self._owned_cells]))
+                            *gather_count(self.comm, folded, self._cell_input_index[self._owned_cells]),
+                            gather_count(self.comm, kinked, self._cell_input_index[self._owned_cells])[0])
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
         """Tangent ∂²Π/∂u² at x into A; rows of constrained unknowns become identity rows (columns kept).

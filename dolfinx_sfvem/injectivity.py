@@ -7,14 +7,17 @@ its vertices and edge midpoints ``y = X + u``,
 
     v_0, m_0, v_1, m_1, ..., v_{N-1}, m_{N-1}     (2N points, the degree-2 edge traces),
 
-and calls the element *folded* when that polyline has lost the orientation of the reference
-boundary (signed area of the deformed polyline times that of the reference one <= 0) or, in
-a solid, crosses itself (two non-adjacent segments intersect). Third-medium elements are only
-checked for orientation: squeezed between solids in contact, their edges legitimately kink
-across each other (docs/contact.md). Both discretizations call
-:func:`folded_elements` on every trial state (the line search and the cut-back treat a fold
-like J <= 0) and on every converged state. See docs/contact.md for what it does and does not
-catch (overlap of different parts of the solids is the job of :mod:`dolfinx_sfvem.contact`).
+and calls a solid element *folded* when that polyline has lost the orientation of the reference
+boundary (signed area of the deformed polyline times that of the reference one <= 0): a folded
+element makes the state inadmissible, like J <= 0. A solid element whose polyline crosses itself
+(two non-adjacent segments intersect) while keeping its orientation is *kinked*: counted and
+reported, not rejected, because a point load crushes the solid elements around its node that way
+(the paper's box, docs/contact.md). Third-medium elements are not checked: squeezed to J ~ 1e-3
+between solids in contact, their strongly curved edges make the straight polyline a poor
+picture of them (its area turns negative with J > 0 at every quadrature point, measured on the
+FEM box), and what matters there, the solids' overlap, is :mod:`dolfinx_sfvem.contact`'s job.
+Both discretizations call :func:`folded_elements` on every trial state (the line search and the
+cut-back treat a fold like J <= 0) and on every converged state.
 """
 from __future__ import annotations
 
@@ -72,8 +75,8 @@ def _self_crossing(y, loop, k0, n):
 
 
 @numba.njit(cache=True)
-def folded_elements(loop_offsets, loop, X, u, elements, crossing):
-    """Count the folded elements among ``elements`` (see the module docstring).
+def folded_elements(loop_offsets, loop, X, u, elements, solid):
+    """Folded and kinked elements among ``elements`` (see the module docstring).
 
     Parameters
     ----------
@@ -86,26 +89,27 @@ def folded_elements(loop_offsets, loop, X, u, elements, crossing):
         Reference coordinates and displacements of the nodes.
     elements : (m,) int64
         The elements to check.
-    crossing : (n_elements,) bool
-        Whether element e is also checked for a self-crossing boundary (solids) or only for
-        its orientation (third medium).
+    solid : (n_elements,) bool
+        Whether element e belongs to a solid (checked) or to the third medium (not checked).
 
     Returns
     -------
-    (m,) bool
-        Whether each of ``elements`` is folded.
+    folded, kinked : (m,) bool
+        Whether each of ``elements`` (solid) has turned over, and whether it crosses itself.
     """
     y = X + u
     folded = np.zeros(elements.size, dtype=np.bool_)
+    kinked = np.zeros(elements.size, dtype=np.bool_)
     for i, e in enumerate(elements):
         k0, n = loop_offsets[e], loop_offsets[e + 1] - loop_offsets[e]
-        folded[i] = _signed_area(y, loop, k0, n) * _signed_area(X, loop, k0, n) <= 0.0 or \
-            (crossing[e] and _self_crossing(y, loop, k0, n))
-    return folded
+        if solid[e]:
+            folded[i] = _signed_area(y, loop, k0, n) * _signed_area(X, loop, k0, n) <= 0.0
+            kinked[i] = not folded[i] and _self_crossing(y, loop, k0, n)
+    return folded, kinked
 
 
-def gather_folded(comm: MPI.Comm, folded: np.ndarray, global_index: np.ndarray) -> tuple[int, int]:
-    """Number of folded elements over all ranks and the largest global index among them (-1 if
-    none), from each rank's mask ``folded`` (m,) over its elements with global indices ``global_index`` (m,)."""
-    first = int(global_index[folded].max(initial=-1))
-    return comm.allreduce(int(np.count_nonzero(folded)), op=MPI.SUM), comm.allreduce(first, op=MPI.MAX)
+def gather_count(comm: MPI.Comm, mask: np.ndarray, global_index: np.ndarray) -> tuple[int, int]:
+    """Number of marked elements over all ranks and the largest global index among them (-1 if
+    none), from each rank's ``mask`` (m,) over its elements with global indices ``global_index`` (m,)."""
+    last = int(global_index[mask].max(initial=-1))
+    return comm.allreduce(int(np.count_nonzero(mask)), op=MPI.SUM), comm.allreduce(last, op=MPI.MAX)

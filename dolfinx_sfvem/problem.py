@@ -276,7 +276,8 @@ class ContactProblem:
         def record(load: float, res: NewtonResult, elapsed: float, converged: bool) -> StepRecord:
             return StepRecord(step=sum(r["converged"] for r in records) + int(converged), load=load,
                               newton_iterations=res.iterations, residual_norms=res.residual_norms,
-                              converged=converged, min_J=res.min_J, failure=res.failure, wall_time_s=elapsed)
+                              converged=converged, min_J=res.min_J, kinked_elements=res.kinked, failure=res.failure,
+                              wall_time_s=elapsed)
 
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
@@ -394,8 +395,9 @@ class ContactProblem:
         reac = "  ".join(f"R[{n}]=({v[0]:+.4e},{v[1]:+.4e})" for n, v in rec.reaction.items() if n != "fixed")
         extra = "  ".join(f"{k}={v:.4e}" for k, v in rec.extra.items())
         gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
+        kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
         print(f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-              f"min J {rec.min_J:.3f}  gap {gap:+.3e}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
+              f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
 
 
 class _StopRequest:

@@ -148,6 +148,7 @@ class NewtonResult:
     min_J_polygon: int
     min_J_tag: int
     folded: int = 0
+    kinked: int = 0
     failure: str = ""
 
 
@@ -292,7 +293,7 @@ class NewtonSolver:
         failure = "" if ok else _failure(reason, info, self.history, atol,
                                          atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, failure)
+                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure)
 
 
 @dataclass
@@ -305,6 +306,7 @@ class StepRecord:
     converged: bool
     reaction: dict[str, list[float]] = field(default_factory=dict)
     min_J: float = float("nan")
+    kinked_elements: int = 0
     failure: str = ""
     gap: dict | None = None
     max_displacement: float = float("nan")

@@ -18,7 +18,7 @@ from petsc4py import PETSc
 from . import _compat, post
 from .assemble import basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop
 from .energy import Energy
-from .injectivity import folded_elements, gather_folded
+from .injectivity import folded_elements, gather_count
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
 from .space import VERTEX, VEMSpace
@@ -63,6 +63,9 @@ class AssemblyInfo:
         through vertices and edge midpoints turned over or crossing itself.
     folded_polygon : int
         Global index of one of them (-1 if none).
+    kinked : int
+        Number of kinked solid elements (boundary crossing itself, orientation kept): reported,
+        not rejected.
     """
     energy: float
     min_J: float
@@ -70,6 +73,7 @@ class AssemblyInfo:
     min_J_tag: int
     folded: int = 0
     folded_polygon: int = -1
+    kinked: int = 0
 
     @property
     def admissible(self) -> bool:
@@ -184,20 +188,21 @@ class SFVEMDiscretization:
                 c = k.pack_constants(reg.energy.params)
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
                               *self._geometry, u, R, stats)
-            folded = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes, u,
+            folded, kinked = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes, u,
                                      np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self._gather_info(stats, folded)
+        return self._gather_info(stats, folded, kinked)
 
-    def _gather_info(self, stats: np.ndarray, folded: np.ndarray) -> AssemblyInfo:
+    def _gather_info(self, stats: np.ndarray, folded: np.ndarray, kinked: np.ndarray) -> AssemblyInfo:
         """AssemblyInfo over all ranks from this rank's [energy, min J, its local polygon] and
-        folded mask over the local polygons."""
+        folded and kinked masks over the local polygons."""
         min_J, rank = self.comm.allreduce((stats[1], self.comm.rank), op=MPI.MINLOC)
         k = int(stats[2])
         where = (int(self.space.polygons[k]), int(self.space.tags[k])) if k >= 0 else (-1, -1)
         polygon, tag = self.comm.bcast(where, root=rank)
         return AssemblyInfo(self.comm.allreduce(stats[0], op=MPI.SUM), float(min_J), polygon, tag,
-                            *gather_folded(self.comm, folded, self.space.polygons))
+                            *gather_count(self.comm, folded, self.space.polygons),
+                            gather_count(self.comm, kinked, self.space.polygons)[0])
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
         """Tangent (Eq. 56) at x into A; rows of constrained unknowns become identity rows.
