@@ -1,4 +1,4 @@
-"""Diagnose a stalled load step of bench/cylinder_block.py (serial; docs/gamma-1e-6.md).
+"""Diagnose a stalled load step of demos/cylinder_block.py (serial; docs/gamma-1e-6.md).
 
 From the checkpoint of a stopped run (``--from DIR``, the same options as that run), this
 measures at the last converged state and after a Newton solve to ``--target``:
@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 from petsc4py import PETSc
 
 HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "demos"))
 import cylinder_block as cb  # noqa: E402
 import _common as common  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
