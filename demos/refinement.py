@@ -23,7 +23,7 @@ Studies (the demos' defaults unless listed):
 Options: ``--quick`` (the coarsest two sizes of the C-box only, in ``<out>/refinement-quick``),
 ``--only PATTERN[,PATTERN]``, ``--np N`` (default 2), ``--list``, ``--report-only``,
 ``--retry-failed``, ``--out DIR``, ``--docs DIR``. Exit code 0 if every selected run ended as it
-should (full load, or, for the thin column, a stop), 1 otherwise, 130 if interrupted.
+should (full load, or a stop where that is the honest outcome), 1 otherwise, 130 if interrupted.
 """
 from __future__ import annotations
 
