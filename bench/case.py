@@ -167,8 +167,8 @@ def run_load_path(problem: sf.ContactProblem, geometry: str, comm: MPI.Comm) -> 
     assembly = wall.get("residual", 0.0) + wall.get("jacobian", 0.0)
     linear = sum(event[name] for name in LINEAR_SOLVE_EVENTS)
     return {"uy": spec.uy, "steps": spec.steps, "converged": bool(result.converged), "load": float(result.load),
-            "attempts": len(result.steps),
-            "newton_iterations": int(sum(s["newton_iterations"] for s in result.steps)),
+            "attempts": len(result.attempts),
+            "newton_iterations": int(sum(s["newton_iterations"] for s in result.attempts)),
             "residual_calls": timer.calls.get("residual", 0), "jacobian_calls": timer.calls.get("jacobian", 0),
             "wall": float(result.wall_time_s), "assembly_wall": assembly,
             "residual_wall": wall.get("residual", 0.0), "jacobian_wall": wall.get("jacobian", 0.0),

@@ -135,6 +135,8 @@ def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = N
     args.petsc_options = rest
     if args.resume is not None:
         args.out = args.resume
+    if args.out.exists() and not args.out.is_dir():
+        p.error(f"--out {args.out}: exists and is not a directory")
     return args
 
 

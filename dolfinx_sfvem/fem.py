@@ -464,6 +464,25 @@ class P2Discretization:
     def num_dofs_global(self) -> int:
         return 2 * self.V.dofmap.index_map.size_global
 
+    def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """u_h at ``points`` (n, 2) inside this rank's owned cells: (values (n, 2), found (n,) bool);
+        points elsewhere get zeros and False."""
+        local_of = np.full(self._output_mesh.n_polygons + 1, -1, dtype=np.int32)      # [-1]: outside
+        local_of[self._cell_input_index[self._owned_cells]] = self._owned_cells
+        local = local_of[self._output_mesh.locate(points)]
+        found = local >= 0
+        values = np.zeros((len(points), 2))
+        if found.any():
+            self._set_state(x)
+            xyz = np.zeros((int(found.sum()), 3))
+            xyz[:, :2] = np.asarray(points)[found]
+            values[found] = self.u.eval(xyz, local[found])
+        return values, found
+
+    def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
+        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
+        return self.x_nodes[dofs // 2]
+
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
         return np.asarray(value(self.x_nodes[dofs // 2].T), dtype=np.float64).reshape(-1)

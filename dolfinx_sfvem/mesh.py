@@ -378,6 +378,28 @@ def _midpoints_inside(points, offsets, vertices, e0, e1, edge_polygon, pairs, to
     return out
 
 
+@numba.njit(cache=True)
+def _locate(x, points, offsets, vertices, tol):
+    """Index of a polygon containing each point of x (n, 2) (on its boundary within tol counts),
+    -1 for points outside the mesh."""
+    n_poly = offsets.size - 1
+    lo = np.empty((n_poly, 2))
+    hi = np.empty((n_poly, 2))
+    for k in range(n_poly):
+        xy = points[vertices[offsets[k]:offsets[k + 1]]]
+        for c in range(2):
+            lo[k, c] = xy[:, c].min() - tol
+            hi[k, c] = xy[:, c].max() + tol
+    found = np.full(x.shape[0], -1, dtype=np.int64)
+    for i in range(x.shape[0]):
+        for k in range(n_poly):
+            if lo[k, 0] <= x[i, 0] <= hi[k, 0] and lo[k, 1] <= x[i, 1] <= hi[k, 1]:
+                if point_location(x[i], points[vertices[offsets[k]:offsets[k + 1]]], tol) >= 0:
+                    found[i] = k
+                    break
+    return found
+
+
 def _owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Segment index of every entry of a CSR array with these offsets, (offsets[-1],)."""
     return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
@@ -413,6 +435,9 @@ class PolygonMesh:
         Polygon i has vertices ``vertices[offsets[i]:offsets[i+1]]``, counter-clockwise.
     vertices : (offsets[-1],) int64
     tags : (n_polygons,) int32
+    region_names : dict[str, int]
+        Region tag by name where known (set by :func:`~dolfinx_sfvem.meshes.from_gmsh` from the
+        physical groups and by the benchmark generators); empty otherwise.
     tol : float
         Absolute length tolerance (``RTOL`` times the bounding-box diagonal).
     hanging_nodes : (n_hanging,) int64
@@ -450,6 +475,7 @@ class PolygonMesh:
         self.points = _as_points(points)
         offsets, vertices = _as_csr(polygons, self.points.shape[0])
         self.tags = _as_tags(tags, offsets.size - 1)
+        self.region_names: dict[str, int] = {}
         used = self.points[np.unique(vertices)]
         self.tol = RTOL * float(np.hypot(*(used.max(axis=0) - used.min(axis=0))))
         self.offsets, self.vertices = offsets, vertices
@@ -610,6 +636,28 @@ class PolygonMesh:
     def polygon_coordinates(self, i: int) -> npt.NDArray[np.float64]:
         """Vertex coordinates (N, 2) of polygon ``i``."""
         return self.points[self.polygon(i)]
+
+    def locate(self, x: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        """Index (n,) of a polygon containing each point of ``x`` (n, 2) (a point on a shared edge
+        belongs to one of its polygons), -1 for points outside the mesh."""
+        x = np.ascontiguousarray(np.asarray(x, dtype=np.float64).reshape(-1, 2))
+        return _locate(x, self.points, self.offsets, self.vertices, self.tol)
+
+    def boundary_points(self, region: int, other: int | None = None) -> npt.NDArray[np.float64]:
+        """Reference coordinates (k, 2) of the vertices and edge midpoints on the boundary of
+        ``region`` that it shares with region ``other`` (None: the mesh's outer boundary): the
+        nodes of the degree-2 edge traces there."""
+        start, end, polygon = self._edges()
+        key = np.minimum(start, end) * self.n_points + np.maximum(start, end)
+        mine = self.tags[polygon] == region
+        if other is None:
+            unique, count = np.unique(key, return_counts=True)
+            partner = mine & np.isin(key, unique[count == 1])
+        else:
+            partner = mine & np.isin(key, key[self.tags[polygon] == other])
+        a, b = start[partner], end[partner]
+        return np.unique(np.concatenate([self.points[a], self.points[b], 0.5 * (self.points[a] + self.points[b])]),
+                         axis=0)
 
     def summary(self) -> str:
         """Human-readable counts: polygons by vertex number, triangulation kinds, hanging nodes, regions."""

@@ -438,16 +438,43 @@ def quads_with_hanging_nodes(Lx: float, Ly: float, n: int,
 # --------------------------------------------------------------------------- gmsh
 @contextlib.contextmanager
 def gmsh_session() -> Iterator[object]:
-    """A quiet gmsh session of our own, always finalised; yields the gmsh module."""
+    """A quiet gmsh model of our own; yields the gmsh module.
+
+    If the caller has no gmsh session open, one is initialised and finalised here. If the
+    caller's session is open, it is left open: a new model is added and removed afterwards,
+    and the caller's current model and terminal option are restored.
+    """
     import gmsh
 
-    newer = "interruptible" in inspect.signature(gmsh.initialize).parameters  # newer gmsh: skip its SIGINT handler
-    gmsh.initialize(readConfigFiles=False, **({"interruptible": False} if newer else {}))
+    ours = not _gmsh_initialized(gmsh)
+    if ours:
+        newer = "interruptible" in inspect.signature(gmsh.initialize).parameters  # newer gmsh: skip its SIGINT handler
+        gmsh.initialize(readConfigFiles=False, **({"interruptible": False} if newer else {}))
+    previous, terminal = gmsh.model.getCurrent(), gmsh.option.getNumber("General.Terminal")
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        if not ours:
+            gmsh.model.add("dolfinx_sfvem")
         yield gmsh
     finally:
-        gmsh.finalize()
+        if ours:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous in gmsh.model.list():
+                gmsh.model.setCurrent(previous)
+            gmsh.option.setNumber("General.Terminal", terminal)
+
+
+def _gmsh_initialized(gmsh) -> bool:
+    """Whether a gmsh session is open (gmsh 4.8 has no ``isInitialized``: it lists no model
+    before the first initialisation and raises after a finalisation)."""
+    if hasattr(gmsh, "isInitialized"):
+        return bool(gmsh.isInitialized())
+    try:
+        return len(gmsh.model.list()) > 0
+    except Exception:
+        return False
 
 
 def _surface_regions(gmsh, region_tags: Mapping[str, int] | None) -> dict[int, int]:
@@ -526,19 +553,35 @@ def from_gmsh(source: str | os.PathLike | None = None,
         Read the surfaces of these 2D physical groups with these tags; a missing group is
         a ValueError naming it. Default: every 2D physical group, tagged by its number,
         or all surfaces with tag 0 if the model has no 2D physical group.
+
+    The mesh's ``region_names`` (name -> tag) let :class:`~dolfinx_sfvem.ContactProblem` take
+    materials keyed by the physical groups' names. A gmsh session the caller has open stays open.
     """
     if source is None:
         import gmsh
 
         points, offsets, flat, tags = model_cells(gmsh, region_tags)
+        names = region_names(gmsh, region_tags)
     else:
         path = os.fspath(source)
         if not os.path.isfile(path):
             raise FileNotFoundError(path)
         with gmsh_session() as gmsh:
-            gmsh.open(path)
+            gmsh.merge(path)
             points, offsets, flat, tags = model_cells(gmsh, region_tags)
-    return PolygonSet(points, _split(offsets, flat), tags).to_mesh()
+            names = region_names(gmsh, region_tags)
+    mesh = PolygonSet(points, _split(offsets, flat), tags).to_mesh()
+    mesh.region_names = names
+    return mesh
+
+
+def region_names(gmsh, region_tags: Mapping[str, int] | None) -> dict[str, int]:
+    """Region tag by name of the current gmsh model's 2D physical groups (``region_tags`` itself
+    when given; unnamed groups are left out)."""
+    if region_tags is not None:
+        return dict(region_tags)
+    return {name: int(group) for _, group in gmsh.model.getPhysicalGroups(2)
+            if (name := gmsh.model.getPhysicalName(2, group))}
 
 
 #: gmsh geometry builder: ``build(gmsh, h)`` -> {region tag: surface tags}
@@ -651,6 +694,9 @@ class Benchmark:
     regions: dict[str, int]
     points: dict[str, tuple[float, float]]
     segments: dict[str, tuple[tuple[float, float], tuple[float, float]]]
+
+    def __post_init__(self):
+        self.mesh.region_names = dict(self.regions)
 
     def vertex(self, name: str) -> int:
         """Index of the mesh vertex at the named point (ValueError if there is none)."""

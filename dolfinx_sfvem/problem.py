@@ -21,6 +21,7 @@ import typing
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -39,6 +40,8 @@ STOPPED_BY_SIGNAL = "stopped by signal"
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
+#: an observer returns one number, or several named ones
+Observer = typing.Callable[["ContactProblem"], typing.Union[float, typing.Mapping[str, float]]]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
 
 
@@ -58,13 +61,68 @@ class BoundaryCondition:
 
 @dataclass
 class Result:
-    """Outcome of :meth:`ContactProblem.solve`."""
+    """Outcome of :meth:`ContactProblem.solve`.
+
+    Attributes
+    ----------
+    converged : bool
+        The full load was reached (and no solids overlap).
+    load : float
+        Largest load factor reached.
+    steps : list of dict
+        The converged steps, in order (``summary.json``'s records: ``load``, ``reaction``
+        ``{name: [R_x, R_y]}``, ``gap``, ``extra`` (observers), ...).
+    attempts : list of dict
+        Every attempted step, failed ones included (``converged`` False, with ``failure``).
+    wall_time_s : float
+    summary : dict
+        The content of summary.json.
+    message : str
+        Why the run stopped ("" if it converged).
+    """
     converged: bool
     load: float
     steps: list[dict]
+    attempts: list[dict]
     wall_time_s: float
     summary: dict
     message: str = ""
+
+
+def _observe(problem: "ContactProblem", observers: typing.Mapping[str, Observer]) -> dict[str, float]:
+    """The observers' values: ``name`` for a number, ``name.key`` for each entry of a mapping."""
+    values: dict[str, float] = {}
+    for name, f in observers.items():
+        value = f(problem)
+        if isinstance(value, typing.Mapping):
+            values.update({f"{name}.{key}": float(v) for key, v in value.items()})
+        else:
+            values[name] = float(value)
+    return values
+
+
+def _component(c: int | str, name: str) -> int:
+    """0 or 1 from 0 / 1 / "x" / "y"."""
+    index = {0: 0, 1: 1, "x": 0, "y": 1}.get(c) if isinstance(c, (int, str, np.integer)) else None
+    if index is None or isinstance(c, bool):
+        raise ValueError(f"boundary condition {name!r}: component {c!r}; use 0 or 'x', 1 or 'y'")
+    return index
+
+
+def _materials_by_tag(mesh: PolygonMesh, materials: typing.Mapping[int | str, Energy]) -> dict[int, Energy]:
+    """Materials keyed by region tag; names are looked up in ``mesh.region_names``."""
+    out: dict[int, Energy] = {}
+    for key, energy in materials.items():
+        if isinstance(key, str):
+            if key not in mesh.region_names:
+                known = ", ".join(f"{n!r} = {t}" for n, t in mesh.region_names.items()) or "none"
+                raise ValueError(f"material key {key!r} is not a region name of the mesh (its names: {known}); "
+                                 "key materials by region name or by integer region tag")
+            key = mesh.region_names[key]
+        if int(key) in out:
+            raise ValueError(f"two materials given for region {int(key)}")
+        out[int(key)] = energy
+    return out
 
 
 class ContactProblem:
@@ -98,7 +156,7 @@ class ContactProblem:
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         self.method = method
         self.mesh = mesh
-        self.materials = dict(materials)
+        self.materials = _materials_by_tag(mesh, materials)
         self.comm = comm
         self.verbose = options.get("verbose", True)
         if method == "vem":
@@ -115,13 +173,19 @@ class ContactProblem:
         self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
         self.x = self.disc.create_vector()
         self.x.set(0.0)
+        self._solved = False
         self.parameters: dict[str, typing.Any] = {}
+
+    def reset(self) -> None:
+        """Back to the reference state (u = 0), so that :meth:`solve` may run again."""
+        self.x.set(0.0)
+        self._solved = False
 
     # ------------------------------------------------------------------ boundary conditions
     def fix(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
-            components: typing.Iterable[int] = (0, 1), name: str = "fixed") -> BoundaryCondition:
-        """u_i = 0 for the given components on the selected nodes."""
-        return self._add(BoundaryCondition(name, {int(c): 0.0 for c in components}, marker,
+            components: typing.Iterable[int | str] = (0, 1), name: str = "fixed") -> BoundaryCondition:
+        """u_i = 0 for the given components (0 or "x", 1 or "y") on the selected nodes."""
+        return self._add(BoundaryCondition(name, {_component(c, name): 0.0 for c in components}, marker,
                                            None if tags is None else tuple(tags)))
 
     def prescribe(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None, *,
@@ -148,21 +212,41 @@ class ContactProblem:
     def _constraints(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Constrained mask (local), final values of owned constrained unknowns, dofs per BC."""
         n_local = self.disc.n_local_dofs
-        constrained = np.zeros(n_local, dtype=bool)
+        by = np.full(n_local, -1)                  # index of the condition that set each unknown
         final = np.zeros(n_local)
         dofs_of = {}
-        for bc in self.bcs:
+        for k, bc in enumerate(self.bcs):
             all_dofs = []
             for comp, value in bc.values.items():
                 dofs = self.disc.locate_dofs(bc.marker, bc.tags, comp)
-                constrained[dofs] = True
-                final[dofs] = self.disc.dof_values(value, dofs) if callable(value) else value
+                values = self.disc.dof_values(value, dofs) if callable(value) else np.full(dofs.size, value)
+                self._check_agreement(by, final, dofs, values, k)
+                by[dofs], final[dofs] = k, values
                 all_dofs.append(dofs)
             dofs_of[bc.name] = np.concatenate(all_dofs)
             if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
                 raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
+        constrained = by >= 0
         owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
         return constrained, final[owned], dofs_of
+
+    def _check_agreement(self, by: np.ndarray, final: np.ndarray, dofs: np.ndarray, values: np.ndarray,
+                         k: int) -> None:
+        """Two conditions may share unknowns only with the same values (collective; ValueError
+        naming both conditions and a node otherwise)."""
+        earlier = by[dofs] >= 0
+        clash = earlier & ~np.isclose(final[dofs], values, rtol=1e-12, atol=1e-14)
+        where = None
+        if clash.any():
+            i = int(np.argmax(clash))
+            where = (self.bcs[by[dofs[i]]].name, tuple(self.disc.dof_coordinates(dofs[i:i + 1])[0]),
+                     "xy"[dofs[i] % 2], float(final[dofs[i]]), float(values[i]))
+        found = [w for w in self.comm.allgather(where) if w is not None]
+        if found:
+            other, x, comp, a, b = found[0]
+            raise ValueError(f"boundary conditions {other!r} and {self.bcs[k].name!r} prescribe different u_{comp} "
+                             f"({a:g} and {b:g}) at the node ({x[0]:g}, {x[1]:g}); equal values on shared nodes "
+                             "are allowed")
 
     def set_displacement(self, ux: Value = 0.0, uy: Value = 0.0) -> None:
         """Set the current state (e.g. an initial guess or a pre-deformation): ``ux``/``uy`` are
@@ -207,6 +291,17 @@ class ContactProblem:
         it occurs (collective; :mod:`~dolfinx_sfvem.contact`)."""
         return self.boundary.gap_of_state(self.comm, *self.disc.get_state(self.x))
 
+    def displacement_at(self, points: npt.ArrayLike) -> np.ndarray:
+        """Displacement (n, 2) at reference ``points`` (n, 2) on every rank (collective): the SFVEM's
+        Π^∇_2 u of the polygon holding the point (Eq. 36), the FEM's u_h; NaN outside the mesh.
+        With :meth:`PolygonMesh.boundary_points` it gives displacements along a boundary, curved
+        ones included (their vertices and edge midpoints are the nodes)."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        values, found = self.disc.displacement_at(self.x, points)
+        count = self.comm.allreduce(found.astype(np.int64), op=MPI.SUM)
+        total = self.comm.allreduce(values, op=MPI.SUM)
+        return np.where(count[:, None] > 0, total / np.maximum(count, 1)[:, None], np.nan)
+
     def point_displacements(self) -> np.ndarray | None:
         """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
         indices, values = self.disc.output_point_displacements(self.x)
@@ -216,8 +311,8 @@ class ContactProblem:
     def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
               petsc_options: typing.Mapping[str, typing.Any] | None = None,
               min_increment: float | None = None,
-              observers: typing.Mapping[str, typing.Callable[["ContactProblem"], float]] | None = None,
-              raise_on_failure: bool = False, resume: bool = False) -> Result:
+              observers: typing.Mapping[str, Observer] | None = None,
+              raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False) -> Result:
         """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
 
         Parameters
@@ -231,14 +326,26 @@ class ContactProblem:
         min_increment
             Smallest load-factor increment of the automatic cut-back (default (1/steps)/2¹⁰).
         observers
-            Named scalar quantities recorded per converged step (e.g. a gap).
+            ``{name: f}``, each ``f(problem)`` called once per converged step (collectively, on every
+            rank) and returning a number, recorded as ``name``, or a mapping ``{key: number}``,
+            recorded as ``name.key`` (several values from one computation, e.g. a gap profile).
+            They go to ``steps[i]["extra"]`` of summary.json and to load_path.csv.
         raise_on_failure
             Raise :class:`SolveFailed` instead of returning a non-converged result.
         resume
             Continue the run saved in ``out`` (``checkpoint.npz`` and ``summary.json``, written
             after every converged step) from its last converged step. With the same
             ``steps`` the result equals that of an uninterrupted run.
+        from_current_state
+            A problem solved once refuses to solve again unless this is True: then the load is
+            ramped again from 0 starting from the current (deformed) state. :meth:`reset` returns
+            to the reference state instead.
         """
+        if self._solved and not (from_current_state or resume):
+            raise ValueError("this problem has been solved already; call reset() to start again from the "
+                             "reference state, or solve(..., from_current_state=True) to ramp the load again "
+                             "from the current state")
+        self._solved = True
         t_start = time.perf_counter()
         constrained, final, dofs_of = self._constraints()
         self._check_initial_state()
@@ -284,7 +391,7 @@ class ContactProblem:
             rec.gap = gaps[0].as_dict()
             rec.reaction = self.reactions(dofs_of, load)
             rec.max_displacement = self.max_displacement()
-            rec.extra = {name: float(f(self)) for name, f in observers.items()}
+            rec.extra = _observe(self, observers)
             records.append(asdict(rec))
             self._progress(rec)
             if writer is not None:
@@ -366,7 +473,7 @@ class ContactProblem:
             writer.finish(summary)
         if message and self.comm.rank == 0:
             print(f"run stopped: {message}", flush=True)
-        return Result(converged, load, records, wall, summary, message)
+        return Result(converged, load, [r for r in records if r["converged"]], records, wall, summary, message)
 
     def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
         """The content of summary.json."""
@@ -389,15 +496,17 @@ class ContactProblem:
         }
 
     def _progress(self, rec: StepRecord) -> None:
+        """One line per converged step: Newton, J, gap, time and the first prescribed condition's
+        reaction (the full record is in summary.json and load_path.csv)."""
         if not (self.verbose and self.comm.rank == 0):
             return
         res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
-        reac = "  ".join(f"R[{n}]=({v[0]:+.4e},{v[1]:+.4e})" for n, v in rec.reaction.items() if n != "fixed")
-        extra = "  ".join(f"{k}={v:.4e}" for k, v in rec.extra.items())
         gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
         kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
+        loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
+        reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
         print(f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-              f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  {reac}  {extra}", flush=True)
+              f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s{reaction}", flush=True)
 
 
 class _StopRequest:

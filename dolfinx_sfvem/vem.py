@@ -21,6 +21,7 @@ from .energy import Energy
 from .injectivity import folded_elements, gather_count
 from .kernels import EnergyKernels, compile_kernels
 from .mesh import PolygonMesh
+from .monomials import evaluate_monomials
 from .space import VERTEX, VEMSpace
 
 
@@ -301,6 +302,29 @@ class SFVEMDiscretization:
     def n_local_dofs(self) -> int:
         """Owned and ghost unknowns of this rank."""
         return 2 * self.space.n_local_nodes
+
+    def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Π^∇_2 u (Eq. 36) at ``points`` (n, 2) inside this rank's polygons: (values (n, 2), found (n,)
+        bool); points elsewhere get zeros and False."""
+        space, proj = self.space, self.space.projections
+        local_of = np.full(space.polygon_mesh.n_polygons, -1, dtype=np.int64)
+        local_of[space.polygons] = np.arange(space.polygons.size)
+        where = space.polygon_mesh.locate(points)
+        k_of = np.where(where >= 0, local_of[np.maximum(where, 0)], -1)
+        values = np.zeros((len(points), 2))
+        m, dm_dx, dm_dy = np.empty(6), np.empty(6), np.empty(6)
+        with x.localForm() as xl:
+            u = xl.array_r.reshape(-1, 2)
+            for i in np.flatnonzero(k_of >= 0):
+                k = k_of[i]
+                evaluate_monomials(np.asarray(points[i], dtype=np.float64), proj.centroid[k], proj.diameter[k], 2,
+                                   m, dm_dx, dm_dy)
+                values[i] = (m @ proj.Pi_nabla_of(k)) @ u[space.polygon_dofs(k)]
+        return values, k_of >= 0
+
+    def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
+        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
+        return self.space.x_nodes[dofs // 2]
 
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """DOF values of the function ``value(x) -> (n,)`` for one component at the unknowns ``dofs``:

@@ -50,7 +50,7 @@ def cbox_load_path() -> dict:
     problem.prescribe(lambda x: np.hypot(x[0] - LOAD_POINT[0], x[1] - LOAD_POINT[1]) < 1e-10, uy=UY, name="load")
     result = problem.solve(steps=STEPS)
     steps = [{"load": s["load"], "converged": s["converged"], "newton_iterations": s["newton_iterations"],
-              **({"reaction": s["reaction"]["load"]} if s["converged"] else {})} for s in result.steps]
+              **({"reaction": s["reaction"]["load"]} if s["converged"] else {})} for s in result.attempts]
     return {"unknowns": int(problem.disc.num_dofs_global), "converged": result.converged, "steps": steps}
 
 

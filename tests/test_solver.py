@@ -120,7 +120,7 @@ def test_failed_step_is_cut_back():
     the full load. Failed attempts are recorded (converged False) and do not count as steps."""
     result = cbox_problem(uy=-0.2).solve(1, petsc_options={"snes_max_it": 4})
     assert result.converged and result.load == 1.0, result.message
-    steps = result.steps
+    steps = result.attempts
     assert not steps[0]["converged"] and steps[0]["load"] == 1.0
     last = 0.0
     for attempt, following in zip(steps, steps[1:]):
@@ -151,7 +151,7 @@ def exhausted_run(out, raise_on_failure: bool):
     if not raise_on_failure:
         result = problem.solve(6, out=out, min_increment=0.5 / 6)
         assert not result.converged
-        return result.steps, result.load, result.message
+        return result.attempts, result.load, result.message
     with pytest.raises(sf.SolveFailed) as failure:
         problem.solve(6, out=out, min_increment=0.5 / 6, raise_on_failure=True)
     summary, _ = read_outputs(out)
@@ -197,11 +197,11 @@ def test_python_options_do_not_leak(user_option):
     before = user_option.getAll()
     limited = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2, petsc_options={"snes_max_it": 1}, min_increment=0.5)
     assert not limited.converged
-    assert all(s["newton_iterations"] <= 1 for s in limited.steps)
+    assert all(s["newton_iterations"] <= 1 for s in limited.attempts)
     assert user_option.getAll() == before
     normal = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2)
     assert normal.converged, normal.message
-    assert max(s["newton_iterations"] for s in normal.steps) > 1
+    assert max(s["newton_iterations"] for s in normal.attempts) > 1
     assert user_option.getAll() == before
 
 
@@ -228,7 +228,7 @@ def test_default_absolute_tolerance_scales_with_the_moduli():
     same deflection and at a final residual proportional to the scale."""
     results = {scale: cantilever_problem(scale).solve(2) for scale in (1e-6, 1.0, 1e6)}
     assert all(r.converged for r in results.values()), {s: r.message for s, r in results.items()}
-    iterations = {s: [step["newton_iterations"] for step in r.steps] for s, r in results.items()}
+    iterations = {s: [step["newton_iterations"] for step in r.attempts] for s, r in results.items()}
     assert iterations[1e-6] == iterations[1.0] == iterations[1e6], iterations
     deflection = {s: r.steps[-1]["max_displacement"] for s, r in results.items()}
     assert deflection[1e-6] == pytest.approx(deflection[1.0], rel=1e-10)
@@ -261,7 +261,7 @@ def test_given_snes_atol_is_used_as_is(solve_with_fixed_atol):
     reference = cantilever_problem(1e-6).solve(2)
     early = solve_with_fixed_atol(cantilever_problem(1e-6))
     assert reference.converged and early.converged, (reference.message, early.message)
-    assert sum(s["newton_iterations"] for s in early.steps) < sum(s["newton_iterations"] for s in reference.steps)
+    assert sum(s["newton_iterations"] for s in early.attempts) < sum(s["newton_iterations"] for s in reference.attempts)
     assert all(1e-12 < s["residual_norms"][-1] <= 1e-10 for s in early.steps), early.steps
     deflection, converged_deflection = early.steps[-1]["max_displacement"], reference.steps[-1]["max_displacement"]
     assert abs(deflection - converged_deflection) > 1e-5 * converged_deflection
