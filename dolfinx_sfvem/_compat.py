@@ -57,7 +57,6 @@ DOLFINX_VERSION = dolfinx.__version__
 
 #: PETSc InsertMode values (petscsystypes.h)
 INSERT_VALUES = 1
-ADD_VALUES = 2
 
 
 # --------------------------------------------------------------------------- mesh

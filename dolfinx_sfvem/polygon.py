@@ -171,15 +171,6 @@ def _default_tol(xy: npt.NDArray[np.float64], tol: float | None) -> float:
     return RTOL * diameter(xy) if tol is None else float(tol)
 
 
-def is_simple(xy: npt.ArrayLike, tol: float | None = None) -> bool:
-    """Whether the loop ``xy`` (N, 2) has no touching edges (see :func:`self_intersection`).
-
-    ``tol`` defaults to ``RTOL`` times the polygon's diameter.
-    """
-    xy = np.ascontiguousarray(xy, dtype=np.float64)
-    return self_intersection(xy, _default_tol(xy, tol))[0] < 0
-
-
 # --------------------------------------------------------------------------- triangulation
 @numba.njit(cache=True)
 def _sees_all_edges(xy: npt.NDArray[np.float64], c: npt.NDArray, tol: float) -> bool:

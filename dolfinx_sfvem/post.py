@@ -113,7 +113,7 @@ def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.nd
     colours = plt.get_cmap("Pastel1")(np.searchsorted(np.unique(tags), tags) % 9)
     if node_values is not None:
         tri = polygon_mesh.triangles
-        nodes = np.vstack([x, polygon_mesh.extra_points + _extra_displacement(polygon_mesh, displacement)])
+        nodes = np.vstack([x, polygon_mesh.extra_points + _extra_values(polygon_mesh, displacement)])
         values = np.concatenate([node_values, _extra_values(polygon_mesh, node_values)])
         tpc = ax.tripcolor(nodes[:, 0], nodes[:, 1], tri, values, shading="gouraud", cmap="viridis")
         fig.colorbar(tpc, ax=ax, shrink=0.8)
@@ -128,11 +128,6 @@ def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.nd
     fig.savefig(tmp, bbox_inches="tight")
     plt.close(fig)
     os.replace(tmp, path)
-
-
-def _extra_displacement(polygon_mesh, displacement: np.ndarray) -> np.ndarray:
-    """Displacement of the fan centres: mean of their polygon's vertices (drawing only)."""
-    return _extra_values(polygon_mesh, displacement)
 
 
 def _extra_values(polygon_mesh, values: np.ndarray) -> np.ndarray:

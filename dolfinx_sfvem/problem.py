@@ -516,9 +516,6 @@ class _StopRequest:
         self.signalled = 0
         self._old = {}
 
-    def __call__(self) -> bool:
-        return bool(self.signalled)
-
     def _handler(self, signum, frame):
         self.signalled = signum
 
