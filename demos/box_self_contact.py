@@ -131,7 +131,7 @@ G0 = 0.5 - 2 * T
 #: default exponent of the exp(-beta J) scaling of the regularization (paper §5.1, Eq. 58)
 BETA = 5.0
 
-#: Paper Table 2 (Xu & Wriggers, §5.1; DESIGN.md §7): final gap g at u_y = -1 for huhu_lulu with
+#: Paper Table 2 (Xu & Wriggers, §5.1; the paper's table): final gap g at u_y = -1 for huhu_lulu with
 #: exp(-5 J) scaling; (alpha_r, gamma) -> (mesh 1, mesh 2, mesh 3).
 PAPER_TABLE2: dict[tuple[float, float], tuple[float, float, float]] = {
     (10.0, 1e-4): (8.6882e-3, 8.7000e-3, 7.5000e-3),
@@ -144,7 +144,7 @@ PAPER_TABLE2: dict[tuple[float, float], tuple[float, float, float]] = {
     (0.1, 1e-5): (1.8730e-3, 1.8934e-3, 1.7435e-3),
     (0.1, 1e-6): (4.8469e-4, 4.8581e-4, 4.6363e-4),
 }
-#: Paper Table 3 (§5.1; DESIGN.md §7): final gap for gamma = 1e-6, alpha_r = 10 and the
+#: Paper Table 3 (§5.1; the paper's table): final gap for gamma = 1e-6, alpha_r = 10 and the
 #: regularizations of Eqs. 9, 15, 16 (unscaled); regularization -> (mesh 1, mesh 2, mesh 3).
 #: (The rotation row repeats Table 2's alpha_r = 1 values on meshes 1, 2 and its alpha_r = 10 value
 #: on mesh 3, as printed in the paper.)

@@ -1,4 +1,4 @@
-"""Run a demo with SFVEM and with FEM and compare the two runs (DESIGN §8 cross-check).
+"""Run a demo with SFVEM and with FEM and compare the two runs (docs/method.md §7 cross-check).
 
 Usage::
 

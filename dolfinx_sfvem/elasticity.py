@@ -1,7 +1,7 @@
 """Plane-strain linear-elastic SFVEM element stiffness of one polygon (paper Eqs. 43, 49-50).
 
 The element is stabilisation-free: K = int_E B^T C B with B built from the L^2 projection
-Pi^0_l grad only. It is the reference for the rank test (DESIGN 4.5: exactly 3 zero
+Pi^0_l grad only. It is the reference for the rank test (docs/method.md §3: exactly 3 zero
 eigenvalues, the rigid motions) and for the patch test of the vector element.
 """
 from __future__ import annotations
@@ -68,7 +68,7 @@ def linear_elastic_stiffness(vertices: npt.ArrayLike, young: float, poisson: flo
         Degree of the gradient projection. Default: the automatic choice of
         :func:`~dolfinx_sfvem.projection.build_projections`. A given l is used as is, also
         when it is rank-deficient, so that the spurious zero-energy modes can be counted
-        (DESIGN 4.5 table).
+        (docs/method.md §3 table).
 
     Returns
     -------

@@ -105,7 +105,7 @@ def pi_nabla_2(xy: np.ndarray, x_E: np.ndarray, h_E: float, area: float) -> np.n
     """Matrix of the H^1 projection Pi^nabla_2 onto P_2 (Eq. 36), G Pi_nabla = B.
 
     Rows a >= 1: int_E grad(Pi v) . grad m_a = int_E grad v . grad m_a
-    = -Lap(m_a) |E| mean(v) + sum_e int_e (dm_a/dn) v (DESIGN 4.1); v is quadratic and
+    = -Lap(m_a) |E| mean(v) + sum_e int_e (dm_a/dn) v (docs/method.md §2); v is quadratic and
     dm_a/dn linear on an edge, so Simpson's rule (|e|/6, 4|e|/6, |e|/6) at
     (x_i, m_i, x_{i+1}) is exact. Row 0: equal means (second line of Eq. 36).
 
@@ -172,7 +172,7 @@ def projection_system(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.
 
         (r_c)_a = int_dE m_a n_c v - int_E (dm_a/dx_c) Pi^nabla_2 v         (Eq. 42)
 
-    (enhanced space: the interior term uses Pi^nabla_2 v, DESIGN 4.2). On each edge v is
+    (enhanced space: the interior term uses Pi^nabla_2 v, docs/method.md §2). On each edge v is
     quadratic through v(x_i), v(m_i), v(x_{i+1}) and m_a of degree l, so Gauss-Legendre with
     (l+2)//2 + 1 points is exact (3 points are not for l >= 4). The volume integrals are
     exact monomial integrals of degree <= 2l.
@@ -421,7 +421,7 @@ def kernel_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
     strain_kernel : int
         dim ker(u~ -> sym Pi^0_l grad u) on the 2 nd vector DOFs (u_x DOFs then u_y DOFs);
         3 (the rigid motions) is right. These are the zero eigenvalues of the linear-elastic
-        element stiffness (DESIGN 4.5 table).
+        element stiffness (docs/method.md §3 table).
     """
     nd = Q.shape[2]
     A00 = Q[0].T @ Q[0]
@@ -438,14 +438,14 @@ def kernel_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
 @numba.njit(cache=True)
 def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, l_from: int, l_to: int,
              tol: float) -> tuple[int, int, int, np.ndarray, np.ndarray]:
-    """Smallest sufficient l in [l_from, l_to] (DESIGN 4.5), with its factors L and Q.
+    """Smallest sufficient l in [l_from, l_to] (docs/method.md §3), with its factors L and Q.
 
     l is sufficient when the projected small strain u~ -> sym Pi^0_l grad u has exactly the
     3 rigid motions in its kernel *and* the projected gradient v~ -> Pi^0_l grad v only the
     constants (rank 2N on the scalar DOFs). The strain criterion is the strict one and the
     one that matters: a non-constant scalar kernel mode v gives the non-rigid, strain-free
     field (v, 0), so strain-sufficient implies gradient-sufficient, but not conversely (the
-    U-shaped octagon of the tests at l = 3: gradient kernel 1, strain kernel 5). DESIGN's
+    U-shaped octagon of the tests at l = 3: gradient kernel 1, strain kernel 5). docs/method.md's
     table counts zero eigenvalues of the linear-elastic stiffness, i.e. the strain kernel.
     Checking both costs little and guards the implication against tolerance artefacts.
     The kernel shrinks as l grows (P_l is contained in P_{l+1}), so the first sufficient l is
@@ -682,7 +682,7 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
     l : int or (n,) int, optional
         Degree of the gradient projection, for all polygons or per built polygon (in the
         order of ``polygons``). It must be sufficient for every polygon. Default: per
-        polygon the smallest sufficient l >= l_min (DESIGN 4.5, :func:`select_l`).
+        polygon the smallest sufficient l >= l_min (docs/method.md §3, :func:`select_l`).
     l_min : int
         Smallest l tried by the automatic choice (the paper uses 3).
     l_max : int

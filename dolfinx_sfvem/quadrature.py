@@ -2,7 +2,7 @@
 
 The energy integrals of the SFVEM (paper Eqs. 46, 52, 56) are not polynomial, so they
 are integrated numerically on every polygon with a rule exact for degree 2l, where l is
-the polygon's projection order (DESIGN §4.4). Every point costs one evaluation of the
+the polygon's projection order (docs/method.md §4). Every point costs one evaluation of the
 pointwise energy kernels per assembly, so the rules are made small:
 
 - the reference: Gauss rules on each polygon's sub-triangles (:func:`polygon_quadrature`);

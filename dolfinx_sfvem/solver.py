@@ -1,12 +1,12 @@
 """Newton's method through PETSc SNES, and load stepping with automatic cut-back.
 
-Dirichlet conditions enter through the Newton update (DESIGN §6): the rows of the
+Dirichlet conditions enter through the Newton update (docs/method.md §6): the rows of the
 constrained unknowns are identity rows of the tangent and their residual is
 ``x - g``, so the first Newton step of a load step moves them to their new values
 ``g`` and the rest of the tangent (columns kept) carries the consistent response.
 The state is never overwritten with the new boundary values before a solve.
 
-Default line search: ``l2``. DESIGN §6 measured PETSc's ``bt`` stagnating at contact
+Default line search: ``l2``. docs/method.md §6 measured PETSc's ``bt`` stagnating at contact
 onset on the C-box (residual stuck near 1e-6), while ``l2`` reached full load; every
 option can be changed on the command line or from Python.
 

@@ -3,7 +3,7 @@
 Every polygon ``E`` with ``N`` vertices carries ``nd = 2N + 1`` scalar DOFs per
 displacement component (paper §4.1, χ¹–χ³): the values at its vertices, the values at
 its edge midpoints and its mean. The space sits on a DOLFINx P2 space over the
-quadrature sub-triangulation (DESIGN §3): that space already has a node at every
+quadrature sub-triangulation (docs/method.md §1): that space already has a node at every
 polygon vertex and polygon-edge midpoint, with parallel ownership and ghosts handled
 by DOLFINx, and the interior DOF sits on one interior P2 node of the polygon (its fan
 centre or the midpoint of an interior diagonal). The remaining interior P2 nodes are
@@ -98,7 +98,7 @@ class VEMSpace:
         Communicator; polygons are distributed by ``mesh.partition(comm.size)``.
     l
         Order of the gradient projection Π⁰_l∇ (Eq. 39): ``None`` chooses the smallest
-        sufficient l ≥ ``l_min`` per polygon (DESIGN §4.5); an int or a per-polygon array
+        sufficient l ≥ ``l_min`` per polygon (docs/method.md §3); an int or a per-polygon array
         (global polygon numbering) imposes it and raises if rank-deficient.
     l_min
         Smallest automatic l (3, as in the paper).

@@ -13,7 +13,7 @@ and the C-box, everything in the punch and the multi-object meshes): ``<gmsh>.ge
 and mesh options, ``gmsh <gmsh>.geo -2`` meshes it again) and ``<gmsh>.msh`` (the triangle mesh,
 2D physical groups numbered by region tag). The summary (printed, and ``summary.md``) gives per
 mesh the polygons by region and by vertex count, the hanging nodes and the projection order l
-that the rank check chooses per polygon (DESIGN §4.5: the smallest l >= 3 for which the
+that the rank check chooses per polygon (docs/method.md §3: the smallest l >= 3 for which the
 projected small-strain operator has exactly the 3 rigid-body modes in its kernel; a polygon
 without one is an error, and the script exits with 1).
 

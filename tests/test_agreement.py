@@ -1,4 +1,4 @@
-"""SFVEM and P2 FEM on the same problems (DESIGN §8 cross-check, issue 4).
+"""SFVEM and P2 FEM on the same problems (docs/method.md §7 cross-check, issue 4).
 
 - Smooth finite-strain problem without contact: a Hyperelastic unit square whose boundary
   displacement is the trace of a smooth field (shear and compression, J down to ~0.4).

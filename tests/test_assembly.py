@@ -1,4 +1,4 @@
-"""Consistency of the assembled SFVEM energy, residual and tangent (paper Eqs. 46, 52, 56; DESIGN §8).
+"""Consistency of the assembled SFVEM energy, residual and tangent (paper Eqs. 46, 52, 56; docs/method.md §7).
 
 All checks use independent references: central finite differences of the assembled
 quantities themselves, the exact identity K = Kᵀ of a Hessian, and exact invariances

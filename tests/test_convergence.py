@@ -1,4 +1,4 @@
-"""Convergence of the order-2 SFVEM on a manufactured smooth solution (DESIGN §8).
+"""Convergence of the order-2 SFVEM on a manufactured smooth solution (docs/method.md §7).
 
 Small-strain plane elasticity, written as a user UFL energy ψ = μ ε:ε + λ/2 (tr ε)² with
 ε = sym(F − I), on the unit square with u = 0 on the boundary and the body force

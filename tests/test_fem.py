@@ -1,4 +1,4 @@
-"""P2 FEM reference (dolfinx_sfvem.fem): consistency, protocol, convergence (DESIGN §8).
+"""P2 FEM reference (dolfinx_sfvem.fem): consistency, protocol, convergence (docs/method.md §7).
 
 - The tangent is the derivative of the residual and the residual the derivative of the
   reported energy (central differences), for the solid and every regularization of

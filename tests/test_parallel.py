@@ -1,4 +1,4 @@
-"""Same results on 1 and 2 ranks (DESIGN §6 "MPI", §8).
+"""Same results on 1 and 2 ranks (docs/method.md §1, §7).
 
 Each test solves the same problem twice in one pytest process, on ``MPI.COMM_WORLD`` and
 on ``MPI.COMM_SELF`` (every rank alone), and compares the load paths step by step:

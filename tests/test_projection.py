@@ -1,8 +1,8 @@
-"""Scaled monomials, Pi^nabla_2 and Pi^0_l nabla (paper Eqs. 36, 41-45; DESIGN 4.1-4.5).
+"""Scaled monomials, Pi^nabla_2 and Pi^0_l nabla (paper Eqs. 36, 41-45; docs/method.md §2-3).
 
 The reference values come from outside the code under test: closed-form integrals, Green's
 formulas for polygon moments, quadratic fields evaluated directly, LAPACK SVDs, and the
-zero-eigenvalue table of DESIGN 4.5.
+zero-eigenvalue table of docs/method.md §3.
 """
 import numpy as np
 import pytest
@@ -54,8 +54,8 @@ POLYGONS = {
                                                  [0, 0.5]]),
 }
 
-#: DESIGN 4.5: zero eigenvalues of the linear-elastic element, l = 2..6 (3 is right)
-DESIGN_TABLE = {
+#: docs/method.md §3: zero eigenvalues of the linear-elastic element, l = 2..6 (3 is right)
+ZERO_EIGENVALUES = {
     "square": [5, 3, 3, 3, 3],
     "hexagon": [9, 3, 3, 3, 3],
     "heptagon": [13, 3, 3, 3, 3],
@@ -68,8 +68,8 @@ DESIGN_TABLE = {
 
 
 def design_l(name: str) -> int:
-    """The automatic l that DESIGN's table implies: the smallest l >= 3 with 3 zero eigenvalues."""
-    return next(l for l, zeros in zip(range(2, 7), DESIGN_TABLE[name]) if l >= 3 and zeros == 3)
+    """The automatic l that docs/method.md's table implies: the smallest l >= 3 with 3 zero eigenvalues."""
+    return next(l for l, zeros in zip(range(2, 7), ZERO_EIGENVALUES[name]) if l >= 3 and zeros == 3)
 
 
 def as_csr(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -253,7 +253,7 @@ def test_patch_translated_scaled_polygon(scale, offset):
 
 
 # --------------------------------------------------------------------------- choice of l
-@pytest.mark.parametrize("name", DESIGN_TABLE)
+@pytest.mark.parametrize("name", ZERO_EIGENVALUES)
 def test_automatic_l_matches_design_table(name):
     assert build_one(POLYGONS[name]).l[0] == design_l(name)
 
@@ -385,7 +385,7 @@ def test_bulk_build_equals_per_polygon_build():
 
 
 def test_histogram_and_summary():
-    names = list(DESIGN_TABLE)
+    names = list(ZERO_EIGENVALUES)
     P = build_projections(*as_csr([POLYGONS[name] for name in names]))
     expected = {}
     for name in names:

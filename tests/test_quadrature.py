@@ -1,4 +1,4 @@
-"""Energy quadrature on polygons (DESIGN §4.4): the small rules are exact for degree 2l.
+"""Energy quadrature on polygons (docs/method.md §4): the small rules are exact for degree 2l.
 
 References are independent of the rules under test: the Gauss rules on the sub-triangles
 (exact for the same degree, basix), and the linear-elastic tangent, whose integrand is a

@@ -1,4 +1,4 @@
-"""Newton solver and load stepping (DESIGN §6, §8; paper §4.3, Eqs. 52-56 solved by Newton).
+"""Newton solver and load stepping (docs/method.md §6, §7; paper §4.3, Eqs. 52-56 solved by Newton).
 
 - Newton converges quadratically in the contact phase of a small C-box (paper §5.2).
 - A step that fails is cut back and retried from the last converged state; when the smallest
