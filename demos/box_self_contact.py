@@ -72,30 +72,7 @@ DOFs) 20-23 s, mesh 3 (19,818 DOFs) 44-142 s (more where cut-backs are needed); 
 regularization needs more Newton iterations). ``--steps`` scales this about linearly.
 
 Mesh 3 with the exp(-5 J) scaling (``--table2``): five of its nine runs stop before the full
-load (docs/results.md). Four (alpha_r = 10 at every gamma, alpha_r = 1 at gamma = 1e-6) reach a
-bifurcation: at the last converged state the tangent has one negative eigenvalue (-5e-9 to
--3e-7, the next ones positive) whose mode lives in the medium at a corner of the cavity, where
-the flange turns against the wall. The upper corner quads are stretched there (mean J 1.7 to
-3.7) while pinched at a vertex (J down to 0.02), and the scaling has switched their
-regularization almost off (exp(-5 * 1.7) = 2e-4). The fifth (alpha_r = 0.1, gamma = 1e-6)
-stops at load 0.91 in the contact zone at mid-span (J down to 2e-3) with a positive definite
-tangent. Without the scaling (``--no-beta``, as in ``--table3``) all five reach the full load
-on mesh 3. Their gaps, with the paper's scaled values in brackets:
-
-- alpha_r = 1, gamma = 1e-6: 4.42e-4 (4.90e-4);
-- alpha_r = 0.1, gamma = 1e-6: 4.52e-4 (4.64e-4);
-- alpha_r = 10, gamma = 1e-4: 7.87e-3 (7.50e-3);
-- alpha_r = 10, gamma = 1e-5: 1.88e-3 (1.73e-3);
-- alpha_r = 10, gamma = 1e-6: 4.37e-4 (Table 3).
-
-A higher projection order in the medium (the paper's l = 3) takes alpha_r = 1, gamma = 1e-6
-further but not to the end: l = 4 to load 0.62, l = 5 to 0.72 (l = 4 in the solid only:
-0.31). Splitting the four non-convex solid polygons around the re-entrant corners into
-convex ones: 0.35. Other meshes move the stall but do not remove it (alpha_r = 1 / 10 at
-gamma = 1e-6, which stop at 0.29 / 0.37 on mesh 3): a solid of 0.05 squares in place of the
-dual polygons, 0.73 / 0.60; medium quads of h/4 instead of h/3, 0.45 / 0.53. Up to 200 Newton
-iterations per step (``-snes_max_it 200``, resumed at the stop) do not pass it either: the
-iteration creeps to a residual of 5e-9 and then leaves the domain (J < 0).
+load at bifurcations near the cavity corners; what was measured is in docs/box-mesh3.md.
 
 Examples::
 

@@ -6,9 +6,8 @@ constrained unknowns are identity rows of the tangent and their residual is
 ``g`` and the rest of the tangent (columns kept) carries the consistent response.
 The state is never overwritten with the new boundary values before a solve.
 
-Default line search: ``l2``. docs/method.md §6 measured PETSc's ``bt`` stagnating at contact
-onset on the C-box (residual stuck near 1e-6), while ``l2`` reached full load; every
-option can be changed on the command line or from Python.
+Default line search: ``l2`` (docs/method.md §6); every option can be changed on the command
+line or from Python.
 
 Default absolute tolerance: unless ``snes_atol`` is given (command line or Python), it
 follows the round-off level of the residual,
@@ -16,19 +15,12 @@ follows the round-off level of the residual,
     atol = ATOL_ROUNDOFF_FACTOR * eps * F_c,
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf,
 
-with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows, ``x``
-the state, ``g`` the prescribed values, ``λ f_ext`` the external force and ``eps`` machine
-epsilon. ``F_c`` is the size of the element forces the residual is summed from: Newton
-stagnates at 0.3-0.6 ``eps * F_c`` (measured on the SFVEM and FEM C-boxes with 3e3 to 4e4
-unknowns), so ``atol`` stays four orders of magnitude above the round-off level.
-``||K||_inf`` is taken at the first tangent of every solve and ``atol`` updated at every
-tangent (before the first tangent of a solve, the previous solve's ``||K||_inf``). A fixed
-``atol`` lies below the round-off level of stiff problems (moduli 1e6 times those of the
-C-box stagnate at 6e-9) and stops soft ones too early; this one is proportional to the
-moduli, so moduli and body forces scaled together give the same Newton iterations and
-solution. (Not so with prescribed displacements: the residual ``x - g`` of the constrained
-rows is a length, and rtol, divtol and the line search compare it with forces.) On the C-box it lies between 1e-12 (first steps) and 2e-10 (full load); the former fixed
-value was 1e-10.
+with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
+first tangent of every solve, before it the previous solve's), ``x`` the state, ``g`` the
+prescribed values, ``λ f_ext`` the external force and ``eps`` machine epsilon; ``atol`` is
+updated at every tangent. It is proportional to the moduli, so moduli and body forces scaled
+together give the same Newton iterations and solution. Why and what was measured:
+docs/method.md §6.
 """
 from __future__ import annotations
 
