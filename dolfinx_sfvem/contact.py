@@ -27,6 +27,7 @@ compiled loop over node-piece pairs.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import typing
 from dataclasses import dataclass
@@ -41,6 +42,8 @@ from .mesh import PolygonMesh
 
 #: default overlap tolerance, as a fraction of the length of the boundary edge at the node
 OVERLAP_TOLERANCE = 0.02
+#: the contact zone of a pair: pressure above this fraction of the pair's largest
+ZONE_THRESHOLD = 0.01
 #: two surfaces of one body face each other when their reference normals are more than 120° apart
 FACING_COSINE = -0.5
 
@@ -93,6 +96,58 @@ class Gap:
                 "partner_body": self.partner_body, "overlap": self.overlap}
 
 
+@dataclass
+class ContactPair:
+    """The contact of body ``body`` with body ``partner_body`` across the medium, seen from ``body``.
+
+    Attributes
+    ----------
+    force : (2,) float
+        Total force of the medium on ``body``'s surface facing the partner (force per unit
+        thickness, the units of the reactions).
+    max_pressure : float
+        Largest normal pressure there (compressive positive; force per unit length).
+    zone_length : float
+        Deformed length of the contact zone (pressure above the threshold fraction of the largest).
+    gap : float
+        Smallest signed gap of ``body``'s nodes facing the partner.
+    """
+    body: int
+    partner_body: int
+    region: int
+    partner_region: int
+    force: tuple[float, float]
+    max_pressure: float
+    zone_length: float
+    gap: float
+
+    def as_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "force": list(self.force),
+                "gap": self.gap if math.isfinite(self.gap) else None}
+
+
+@dataclass
+class ContactPressure:
+    """Normal contact pressure at every boundary node of the solids, and the contacts per pair.
+
+    Attributes
+    ----------
+    X, x : (n, 2)
+        Reference and deformed positions of the boundary nodes.
+    pressure : (n,)
+        Normal pressure of the medium on the solid (compressive positive).
+    body, partner_body : (n,) int
+        The node's body and the body across the medium it faces (-1: none).
+    pairs : list of ContactPair
+    """
+    X: np.ndarray
+    x: np.ndarray
+    pressure: np.ndarray
+    body: np.ndarray
+    partner_body: np.ndarray
+    pairs: list[ContactPair]
+
+
 class SolidBoundary:
     """The boundary of the solid bodies of a mesh, as pieces between degree-2 nodes.
 
@@ -129,6 +184,7 @@ class SolidBoundary:
         solid = np.isin(mesh.tags, list(solid_tags))
         start, end, polygon = mesh._edges()
         in_solid = solid[polygon]
+        medium_keys = np.minimum(start, end)[~in_solid] * mesh.n_points + np.maximum(start, end)[~in_solid]
         a, b, polygon = start[in_solid], end[in_solid], polygon[in_solid]
         n = mesh.n_points
         key = np.minimum(a, b) * n + np.maximum(a, b)
@@ -148,6 +204,7 @@ class SolidBoundary:
 
         boundary = count[inverse] == 1
         a, b, polygon = a[boundary], b[boundary], polygon[boundary]
+        faces_medium = np.isin(key[boundary], medium_keys)
         vertices = np.unique(np.concatenate([a, b]))
         n_v, n_e = vertices.size, a.size
         ia, ib = np.searchsorted(vertices, a), np.searchsorted(vertices, b)
@@ -157,7 +214,10 @@ class SolidBoundary:
         self.order = np.argsort(keys)
         self.node_keys = keys[self.order]
         # pieces [a, m], [m, b] of every boundary edge, solid on the left
+        self.n_vertices = n_v
         self.pieces = np.stack([np.concatenate([ia, im]), np.concatenate([im, ib])], axis=1).astype(np.int64)
+        self.piece_edge = np.tile(np.arange(n_e), 2)
+        self.edge_faces_medium = faces_medium
         self.piece_body = np.tile(body[polygon], 2)
         self.piece_tag = np.tile(mesh.tags[polygon], 2).astype(np.int64)
         d = self.X[self.pieces[:, 1]] - self.X[self.pieces[:, 0]]
@@ -180,20 +240,30 @@ class SolidBoundary:
         by_body = np.argsort(self.piece_body, kind="stable")
         self.pieces, self.piece_body, self.piece_tag = self.pieces[by_body], self.piece_body[by_body], self.piece_tag[by_body]
         self.piece_normal, self.piece_middle = self.piece_normal[by_body], self.piece_middle[by_body]
+        self.piece_edge = self.piece_edge[by_body]
         self.body_offsets = np.searchsorted(self.piece_body, np.arange(self.n_bodies + 1)).astype(np.int64)
 
     @property
     def n_nodes(self) -> int:
         return self.X.shape[0]
 
+    def _deformed(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Deformed node positions for displacements ``u`` (in :attr:`node_keys` order) and the
+        signed gaps, partner pieces and depths of :func:`_signed_gaps`."""
+        x = self.X + self._in_node_order(u)
+        g, partner, depth = _signed_gaps(x, self.X, self.pieces, self.body_offsets, self.node_body, self.node_normal,
+                                         self.piece_normal, self.piece_middle, self.node_h, FACING_COSINE)
+        return x, g, partner, depth
+
+    def _in_node_order(self, values: np.ndarray) -> np.ndarray:
+        out = np.empty_like(self.X)
+        out[self.order] = values
+        return out
+
     def gap(self, u: np.ndarray) -> Gap:
         """The smallest signed gap at displacements ``u`` (n_nodes, 2) of the boundary nodes
         (in the order of :attr:`node_keys`)."""
-        U = np.empty_like(self.X)
-        U[self.order] = u
-        x = self.X + U
-        g, partner, depth = _signed_gaps(x, self.X, self.pieces, self.body_offsets, self.node_body, self.node_normal,
-                                         self.piece_normal, self.piece_middle, self.node_h, FACING_COSINE)
+        x, g, partner, depth = self._deformed(u)
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
         if not np.isfinite(g).any():
             return Gap(math.inf, (math.nan, math.nan), (math.nan, math.nan), -1, -1, -1, -1, overlap)
@@ -202,21 +272,77 @@ class SolidBoundary:
         return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
                    int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
 
+    def pressure(self, u: np.ndarray, f: np.ndarray, threshold: float = ZONE_THRESHOLD) -> ContactPressure:
+        """Normal contact pressure of the medium on the solids and the contact per pair of bodies.
+
+        Parameters
+        ----------
+        u, f : (n_nodes, 2)
+            Displacements and the third medium's internal nodal forces ∂W_medium/∂ũ at the
+            boundary nodes (in :attr:`node_keys` order).
+        threshold
+            The contact zone of a pair is where the pressure exceeds this fraction of the pair's
+            largest pressure.
+        """
+        x, g, partner, _ = self._deformed(u)
+        f = self._in_node_order(f)
+        a, b = x[self.pieces[:, 0]], x[self.pieces[:, 1]]
+        length = np.linalg.norm(b - a, axis=1)
+        # per edge facing the medium: the medium's force on its three nodes over its deformed length,
+        # normal to its chord (0 on edges not facing the medium)
+        n_edges = self.piece_edge.max(initial=-1) + 1
+        # a node's force is shared by the medium-facing pieces it ends (a midpoint: its edge's two)
+        facing = self.edge_faces_medium[self.piece_edge].astype(np.float64)
+        pieces_at = np.zeros(self.n_nodes)
+        for end in (0, 1):
+            np.add.at(pieces_at, self.pieces[:, end], facing)
+        force = np.zeros((n_edges, 2))
+        for end in (0, 1):
+            nodes = self.pieces[:, end]
+            np.add.at(force, self.piece_edge, (facing / np.maximum(pieces_at[nodes], 1.0))[:, None] * f[nodes])
+        edge_length = np.bincount(self.piece_edge, weights=length, minlength=n_edges)
+        chord = np.zeros((n_edges, 2))
+        np.add.at(chord, self.piece_edge, b - a)
+        normal = np.stack([chord[:, 1], -chord[:, 0]], axis=1) / np.maximum(edge_length, 1e-300)[:, None]
+        p_edge = np.einsum("ij,ij->i", force, normal) / np.maximum(edge_length, 1e-300)   # the force on the solid is -f
+        # at the nodes: the mean of the adjacent medium-facing edges'
+        p = np.zeros(self.n_nodes)
+        for end in (0, 1):
+            np.add.at(p, self.pieces[:, end], facing * p_edge[self.piece_edge])
+        p /= np.maximum(pieces_at, 1.0)
+        partner_body = np.where(partner >= 0, self.piece_body[np.maximum(partner, 0)], -1)
+        pairs = []
+        for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
+            on = (self.node_body == body) & (partner_body == other)
+            p_max = float(p[on].max(initial=0.0))
+            zone = on & (p > threshold * p_max) & (p_max > 0.0)
+            in_zone = zone[self.pieces[:, 0]] & zone[self.pieces[:, 1]]
+            region = int(self.node_tag[np.argmax(on)])
+            pairs.append(ContactPair(body, other, region, int(self.piece_tag[np.argmax(self.piece_body == other)]),
+                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(length[in_zone].sum()),
+                                     float(g[on].min(initial=math.inf))))
+        return ContactPressure(self.X, x, p, self.node_body, partner_body, pairs)
+
+    def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
+        """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``
+        (k,) (``get_state`` of a discretization), in :attr:`node_keys` order on rank 0 (None
+        elsewhere; collective)."""
+        mine = np.isin(keys, self.node_keys)
+        pieces = comm.gather((keys[mine], values[mine]), root=0)
+        if comm.rank != 0:
+            return None
+        k = np.concatenate([piece[0] for piece in pieces])
+        v = np.concatenate([piece[1] for piece in pieces])
+        _, first = np.unique(k, return_index=True)
+        if not np.array_equal(k[first], self.node_keys):
+            raise RuntimeError("boundary nodes missing from the state")
+        return v[first]
+
     def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
         """:meth:`gap` from each rank's owned nodal values (``get_state`` of a discretization;
         collective, the result on every rank)."""
-        mine = np.isin(keys, self.node_keys)
-        pieces = comm.gather((keys[mine], values[mine]), root=0)
-        result = None
-        if comm.rank == 0:
-            k = np.concatenate([p[0] for p in pieces])
-            v = np.concatenate([p[1] for p in pieces])
-            _, first = np.unique(k, return_index=True)
-            k, v = k[first], v[first]
-            if not np.array_equal(k, self.node_keys):
-                raise RuntimeError("boundary nodes missing from the state")
-            result = self.gap(v)
-        return comm.bcast(result, root=0)
+        u = self.gather(comm, keys, values)
+        return comm.bcast(self.gap(u) if comm.rank == 0 else None, root=0)
 
 
 @numba.njit(cache=True)

@@ -213,6 +213,10 @@ class P2Discretization:
                                  for name, value in energy.params.items()}
                            for tag, energy in self.materials.items()}
         Pi = sum(energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items())
+        medium = [energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items()
+                  if energy.is_medium]
+        self._medium_ufl = ufl.derivative(sum(medium), u, v) if medium else None
+        self._medium_form = None                   # compiled when first used (:meth:`medium_force`)
         if self.jump_penalty is not None:
             Pi = Pi + self._jump_energy(self.jump_penalty)
         residual = ufl.derivative(Pi, u, v)
@@ -366,6 +370,18 @@ class P2Discretization:
         return AssemblyInfo(float(energy), float(min_J), polygon, tag,
                             *gather_count(self.comm, folded, self._cell_input_index[self._owned_cells]),
                             gather_count(self.comm, kinked, self._cell_input_index[self._owned_cells])[0])
+
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """b = ∂Π_medium/∂u, the internal force of the third-medium regions alone, at x."""
+        with b.localForm() as bl:
+            bl.set(0.0)
+        if self._medium_ufl is None:
+            return
+        if self._medium_form is None:
+            self._medium_form = dolfinx.fem.form(self._medium_ufl)
+        self._set_state(x)
+        dolfinx.fem.petsc.assemble_vector(b, self._medium_form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
         """Tangent ∂²Π/∂u² at x into A; rows of constrained unknowns become identity rows (columns kept).

@@ -68,17 +68,25 @@ def json_default(obj):
 
 def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mapping]) -> None:
     """One row per converged step: step, load, Newton iterations, smallest gap between the solids
-    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), reactions, extras."""
+    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), reactions,
+    per pair of bodies b-c in contact the medium's force on b, its largest pressure and the contact
+    zone's length (``contact_b-c_Fx``, ``_Fy``, ``_p_max``, ``_zone``), extras."""
     rows = [s for s in steps if s["converged"]]
     names = sorted({n for s in rows for n in s.get("reaction", {})})
     extras = sorted({k for s in rows for k in s.get("extra", {})})
+    pairs = sorted({(c["body"], c["partner_body"]) for s in rows for c in s.get("contact", [])})
     header = ["step", "load", "newton_iterations", "gap", "gap_x", "gap_y"] + \
-        [f"{n}_R{c}" for n in names for c in "xy"] + extras
+        [f"{n}_R{c}" for n in names for c in "xy"] + \
+        [f"contact_{b}-{c}_{q}" for b, c in pairs for q in ("Fx", "Fy", "p_max", "zone")] + extras
     lines = []
     for s in rows:
         gap = s.get("gap") or {}
+        contact = {(c["body"], c["partner_body"]): c for c in s.get("contact", [])}
         r = [s["step"], s["load"], s["newton_iterations"], gap.get("value"), *gap.get("x", [None, None])]
         r += [s["reaction"].get(n, [np.nan, np.nan])[c] for n in names for c in range(2)]
+        r += [value for pair in pairs for value in
+              ([*contact[pair]["force"], contact[pair]["max_pressure"], contact[pair]["zone_length"]]
+               if pair in contact else [None] * 4)]
         r += [s["extra"].get(k, np.nan) for k in extras]
         lines.append(r)
     buf = io.StringIO()
@@ -86,6 +94,42 @@ def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mappin
     w.writerow(header)
     w.writerows(lines)
     atomic_write_text(path, buf.getvalue())
+
+
+def plot_contact_pressure(path: pathlib.Path, pressure, title: str = "") -> None:
+    """PNG of the normal contact pressure along each body's surface facing another body, against
+    the position along the contact zone (its principal direction in the deformed configuration).
+
+    Parameters
+    ----------
+    pressure : ContactPressure
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=110, layout="constrained")
+    for pair in pressure.pairs:
+        on = (pressure.body == pair.body) & (pressure.partner_body == pair.partner_body)
+        if pair.max_pressure <= 0.0:
+            continue
+        x = pressure.x[on]
+        zone = pressure.pressure[on] > 0.01 * pair.max_pressure
+        centre = x[zone].mean(axis=0)
+        direction = np.linalg.svd(x[zone] - centre, full_matrices=False)[2][0] if zone.sum() > 1 else np.array([1.0, 0.0])
+        s = (x - centre) @ direction
+        order = np.argsort(s)
+        ax.plot(s[order], pressure.pressure[on][order], ".-", ms=3,
+                label=f"region {pair.region} (body {pair.body}) against body {pair.partner_body}")
+    ax.set_xlabel("position along the contact zone")
+    ax.set_ylabel("normal pressure of the medium")
+    ax.set_title(title)
+    if ax.lines:
+        ax.legend(fontsize=7)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    os.replace(tmp, path)
 
 
 def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.ndarray,

@@ -26,7 +26,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat, post
-from .contact import OVERLAP_TOLERANCE, Gap, SolidBoundary
+from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
@@ -291,6 +291,18 @@ class ContactProblem:
         it occurs (collective; :mod:`~dolfinx_sfvem.contact`)."""
         return self.boundary.gap_of_state(self.comm, *self.disc.get_state(self.x))
 
+    def contact_pressure(self) -> ContactPressure:
+        """Normal pressure of the medium on the solids at every boundary node, and per pair of
+        bodies facing each other across the medium the total contact force, the largest pressure,
+        the contact zone's length and the smallest gap, at the current state (collective; the
+        result on every rank; :mod:`~dolfinx_sfvem.contact`)."""
+        f = self.disc.create_vector()
+        self.disc.medium_force(self.x, f)
+        u = self.boundary.gather(self.comm, *self.disc.get_state(self.x))
+        forces = self.boundary.gather(self.comm, *self.disc.get_state(f))
+        f.destroy()
+        return self.comm.bcast(self.boundary.pressure(u, forces) if self.comm.rank == 0 else None, root=0)
+
     def displacement_at(self, points: npt.ArrayLike) -> np.ndarray:
         """Displacement (n, 2) at reference ``points`` (n, 2) on every rank (collective): the SFVEM's
         Π^∇_2 u of the polygon holding the point (Eq. 36), the FEM's u_h; NaN outside the mesh.
@@ -389,6 +401,7 @@ class ContactProblem:
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
             rec.gap = gaps[0].as_dict()
+            rec.contact = [pair.as_dict() for pair in self.contact_pressure().pairs]
             rec.reaction = self.reactions(dofs_of, load)
             rec.max_displacement = self.max_displacement()
             rec.extra = _observe(self, observers)
@@ -638,10 +651,14 @@ class _RunWriter:
     def finish(self, summary: dict) -> None:
         p = self.problem
         u = p.point_displacements()
+        pressure = p.contact_pressure()
         if p.comm.rank == 0:
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
+            load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
             post.plot_deformed_polygons(self.out / "deformed.png", p.disc.output_mesh, u,
-                                        title=f"{p.method}: load factor {summary['steps'][-1]['load'] if summary['steps'] else 0:.3g}")
+                                        title=f"{p.method}: load factor {load:.3g}")
             post.plot_deformed_polygons(self.out / "uy.png", p.disc.output_mesh, u, node_values=u[:, 1],
                                         title="u_y")
+            post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
+                                       title=f"{p.method}: contact pressure at load factor {load:.3g}")

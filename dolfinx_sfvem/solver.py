@@ -301,6 +301,7 @@ class StepRecord:
     kinked_elements: int = 0
     failure: str = ""
     gap: dict | None = None
+    contact: list[dict] = field(default_factory=list)
     max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)

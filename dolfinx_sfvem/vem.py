@@ -178,21 +178,33 @@ class SFVEMDiscretization:
     # ------------------------------------------------------------------ assembly
     def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
         """Internal force vector b = ∂W/∂ũ (Eq. 52) at x (ghosts of x must be current)."""
+        stats = self._internal_force(x, b, self.regions)
+        with x.localForm() as xl:
+            folded, kinked = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes,
+                                             xl.array_r.reshape(-1, 2),
+                                             np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
+        return self._gather_info(stats, folded, kinked)
+
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x."""
+        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium])
+
+    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region]) -> np.ndarray:
+        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated; returns this rank's
+        [energy, min J, local polygon of min J]."""
         stats = np.array([0.0, np.inf, -1.0])
         with x.localForm() as xl, b.localForm() as bl:
             bl.set(0.0)
             u = xl.array_r.reshape(-1, 2)
             R = bl.array.reshape(-1, 2)
-            for reg in self.regions:
+            for reg in regions:
                 k = reg.kernels
                 P_at, T_at = _residual_at(k)
                 c = k.pack_constants(reg.energy.params)
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
                               *self._geometry, u, R, stats)
-            folded, kinked = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes, u,
-                                     np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self._gather_info(stats, folded, kinked)
+        return stats
 
     def _gather_info(self, stats: np.ndarray, folded: np.ndarray, kinked: np.ndarray) -> AssemblyInfo:
         """AssemblyInfo over all ranks from this rank's [energy, min J, its local polygon] and

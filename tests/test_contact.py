@@ -198,3 +198,29 @@ def test_resume_of_another_problem_is_refused(tmp_path):
     assert proc.returncode == 2
     assert "cannot resume" in proc.stderr and "parameters.uy: saved -0.2, now -0.3" in proc.stderr
     assert (tmp_path / "summary.json").read_text() == before
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_contact_pressure_through_a_flat_layer(method):
+    """The upper block pressed onto the lower one through a flat medium layer: the medium's force
+    on each block balances the reaction at the upper block's top exactly (discrete equilibrium),
+    and its pressure along the layer is nearly uniform, about that force per unit width."""
+    options = {"fem_mesh": two_blocks()} if method == "fem" else {}
+    p = sf.ContactProblem(two_blocks(), {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium(gamma=1e-2),
+                                         OTHER: sf.Hyperelastic(K=K, mu=MU)}, method=method, verbose=False, **options)
+    p.fix(lambda x: np.isclose(x[1], 0.0))
+    p.prescribe(lambda x: np.isclose(x[1], 2.2), uy=-0.1, name="top")
+    result = p.solve(steps=2)
+    assert result.converged
+    top = result.steps[-1]["reaction"]["top"]
+    contact = p.contact_pressure()
+    lower, upper = sorted(contact.pairs, key=lambda pair: pair.region)
+    assert (lower.region, lower.partner_region, upper.region) == (SOLID, OTHER, OTHER)
+    assert upper.force == pytest.approx((-top[0], -top[1]), rel=1e-6, abs=1e-12)
+    assert lower.force == pytest.approx((top[0], top[1]), rel=1e-6, abs=1e-12)
+    assert upper.force[1] > 0 and upper.zone_length == pytest.approx(1.0, rel=0.01)
+    surface = (contact.body == upper.body) & np.isclose(contact.X[:, 1], 1.2)
+    pressure = contact.pressure[surface]
+    assert pressure.size == 9 and np.all(np.abs(pressure / upper.force[1] - 1) < 0.05)
+    assert result.steps[-1]["contact"][0]["force"] == pytest.approx(list(lower.force))
