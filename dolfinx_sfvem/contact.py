@@ -263,7 +263,14 @@ class SolidBoundary:
     def gap(self, u: np.ndarray) -> Gap:
         """The smallest signed gap at displacements ``u`` (n_nodes, 2) of the boundary nodes
         (in the order of :attr:`node_keys`)."""
-        x, g, partner, depth = self._deformed(u)
+        return self._gap(*self._deformed(u))
+
+    def gap_and_pressure(self, u: np.ndarray, f: np.ndarray) -> tuple[Gap, ContactPressure]:
+        """:meth:`gap` and :meth:`pressure` from one evaluation of the deformed boundary."""
+        deformed = self._deformed(u)
+        return self._gap(*deformed), self._pressure(*deformed[:3], self._in_node_order(f), ZONE_THRESHOLD)
+
+    def _gap(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, depth: np.ndarray) -> Gap:
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
         if not np.isfinite(g).any():
             return Gap(math.inf, (math.nan, math.nan), (math.nan, math.nan), -1, -1, -1, -1, overlap)
@@ -285,7 +292,10 @@ class SolidBoundary:
             largest pressure.
         """
         x, g, partner, _ = self._deformed(u)
-        f = self._in_node_order(f)
+        return self._pressure(x, g, partner, self._in_node_order(f), threshold)
+
+    def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
+                  threshold: float) -> ContactPressure:
         a, b = x[self.pieces[:, 0]], x[self.pieces[:, 1]]
         length = np.linalg.norm(b - a, axis=1)
         # per edge facing the medium: the medium's force on its three nodes over its deformed length,

@@ -296,12 +296,16 @@ class ContactProblem:
         bodies facing each other across the medium the total contact force, the largest pressure,
         the contact zone's length and the smallest gap, at the current state (collective; the
         result on every rank; :mod:`~dolfinx_sfvem.contact`)."""
+        return self._contact()[1]
+
+    def _contact(self) -> tuple[Gap, ContactPressure]:
+        """:meth:`contact_gap` and :meth:`contact_pressure` from one gather (collective)."""
         f = self.disc.create_vector()
         self.disc.medium_force(self.x, f)
         u = self.boundary.gather(self.comm, *self.disc.get_state(self.x))
         forces = self.boundary.gather(self.comm, *self.disc.get_state(f))
         f.destroy()
-        return self.comm.bcast(self.boundary.pressure(u, forces) if self.comm.rank == 0 else None, root=0)
+        return self.comm.bcast(self.boundary.gap_and_pressure(u, forces) if self.comm.rank == 0 else None, root=0)
 
     def displacement_at(self, points: npt.ArrayLike) -> np.ndarray:
         """Displacement (n, 2) at reference ``points`` (n, 2) on every rank (collective): the SFVEM's
@@ -371,17 +375,17 @@ class ContactProblem:
         writer = _RunWriter(self, out, stepper, append=resume) if out is not None else None
         observers = dict(observers or {})
 
-        gaps: list[Gap] = []        # of the last accepted state
+        contact: list[tuple[Gap, ContactPressure]] = []        # of the last converged state
 
         def solve_to(load: float) -> NewtonResult:
             result = newton.solve(self.x, load * final, load)
             if result.converged:
-                gap = self.contact_gap()
+                contact[:] = [self._contact()]
+                gap = contact[0][0]
                 if gap.overlapping:
                     result.converged = False
                     result.failure = (f"solids overlap: {gap.describe()} (more than {self.boundary.tolerance:g} "
                                       "times the local edge length)")
-                gaps[:] = [gap]
             return result
 
         def save():
@@ -400,8 +404,9 @@ class ContactProblem:
 
         def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
             rec = record(load, res, elapsed, True)
-            rec.gap = gaps[0].as_dict()
-            rec.contact = [pair.as_dict() for pair in self.contact_pressure().pairs]
+            gap, pressure = contact[0]
+            rec.gap = gap.as_dict()
+            rec.contact = [pair.as_dict() for pair in pressure.pairs]
             rec.reaction = self.reactions(dofs_of, load)
             rec.max_displacement = self.max_displacement()
             rec.extra = _observe(self, observers)
