@@ -138,6 +138,8 @@ class ContactPressure:
         Normal pressure of the medium on the solid (compressive positive).
     body, partner_body : (n,) int
         The node's body and the body across the medium it faces (-1: none).
+    zone : (n,) bool
+        In the contact zone: pressure above :data:`ZONE_THRESHOLD` times its pair's largest.
     pairs : list of ContactPair
     """
     X: np.ndarray
@@ -145,6 +147,7 @@ class ContactPressure:
     pressure: np.ndarray
     body: np.ndarray
     partner_body: np.ndarray
+    zone: np.ndarray
     pairs: list[ContactPair]
 
 
@@ -266,9 +269,16 @@ class SolidBoundary:
         return self._gap(*self._deformed(u))
 
     def gap_and_pressure(self, u: np.ndarray, f: np.ndarray) -> tuple[Gap, ContactPressure]:
-        """:meth:`gap` and :meth:`pressure` from one evaluation of the deformed boundary."""
+        """:meth:`gap` and the contact pressure from one evaluation of the deformed boundary.
+
+        Parameters
+        ----------
+        u, f : (n_nodes, 2)
+            Displacements and the third medium's internal nodal forces ∂W_medium/∂ũ at the
+            boundary nodes (in :attr:`node_keys` order).
+        """
         deformed = self._deformed(u)
-        return self._gap(*deformed), self._pressure(*deformed[:3], self._in_node_order(f), ZONE_THRESHOLD)
+        return self._gap(*deformed), self._pressure(*deformed[:3], self._in_node_order(f))
 
     def _gap(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, depth: np.ndarray) -> Gap:
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
@@ -279,29 +289,14 @@ class SolidBoundary:
         return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
                    int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
 
-    def pressure(self, u: np.ndarray, f: np.ndarray, threshold: float = ZONE_THRESHOLD) -> ContactPressure:
-        """Normal contact pressure of the medium on the solids and the contact per pair of bodies.
-
-        Parameters
-        ----------
-        u, f : (n_nodes, 2)
-            Displacements and the third medium's internal nodal forces ∂W_medium/∂ũ at the
-            boundary nodes (in :attr:`node_keys` order).
-        threshold
-            The contact zone of a pair is where the pressure exceeds this fraction of the pair's
-            largest pressure.
-        """
-        x, g, partner, _ = self._deformed(u)
-        return self._pressure(x, g, partner, self._in_node_order(f), threshold)
-
-    def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
-                  threshold: float) -> ContactPressure:
+    def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray) -> ContactPressure:
+        """Normal pressure per node and the contact per pair of bodies (docs/contact.md): per edge
+        facing the medium, the medium's force on its three nodes over its deformed length, normal to
+        its chord (a node's force shared by the medium-facing pieces it ends, a midpoint by its
+        edge's two); at a node, the mean of its medium-facing edges'."""
         a, b = x[self.pieces[:, 0]], x[self.pieces[:, 1]]
         length = np.linalg.norm(b - a, axis=1)
-        # per edge facing the medium: the medium's force on its three nodes over its deformed length,
-        # normal to its chord (0 on edges not facing the medium)
-        n_edges = self.piece_edge.max(initial=-1) + 1
-        # a node's force is shared by the medium-facing pieces it ends (a midpoint: its edge's two)
+        n_edges = self.edge_faces_medium.size
         facing = self.edge_faces_medium[self.piece_edge].astype(np.float64)
         pieces_at = np.zeros(self.n_nodes)
         for end in (0, 1):
@@ -315,23 +310,23 @@ class SolidBoundary:
         np.add.at(chord, self.piece_edge, b - a)
         normal = np.stack([chord[:, 1], -chord[:, 0]], axis=1) / np.maximum(edge_length, 1e-300)[:, None]
         p_edge = np.einsum("ij,ij->i", force, normal) / np.maximum(edge_length, 1e-300)   # the force on the solid is -f
-        # at the nodes: the mean of the adjacent medium-facing edges'
         p = np.zeros(self.n_nodes)
         for end in (0, 1):
             np.add.at(p, self.pieces[:, end], facing * p_edge[self.piece_edge])
         p /= np.maximum(pieces_at, 1.0)
         partner_body = np.where(partner >= 0, self.piece_body[np.maximum(partner, 0)], -1)
-        pairs = []
+        pairs, zone = [], np.zeros(self.n_nodes, dtype=bool)
         for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
             on = (self.node_body == body) & (partner_body == other)
             p_max = float(p[on].max(initial=0.0))
-            zone = on & (p > threshold * p_max) & (p_max > 0.0)
-            in_zone = zone[self.pieces[:, 0]] & zone[self.pieces[:, 1]]
+            mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
+            zone |= mine
+            in_zone = mine[self.pieces[:, 0]] & mine[self.pieces[:, 1]]
             region = int(self.node_tag[np.argmax(on)])
             pairs.append(ContactPair(body, other, region, int(self.piece_tag[np.argmax(self.piece_body == other)]),
                                      tuple(map(float, -f[on].sum(axis=0))), p_max, float(length[in_zone].sum()),
                                      float(g[on].min(initial=math.inf))))
-        return ContactPressure(self.X, x, p, self.node_body, partner_body, pairs)
+        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, pairs)
 
     def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
         """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``

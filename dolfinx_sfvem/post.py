@@ -114,7 +114,7 @@ def plot_contact_pressure(path: pathlib.Path, pressure, title: str = "") -> None
         if pair.max_pressure <= 0.0:
             continue
         x = pressure.x[on]
-        zone = pressure.pressure[on] > 0.01 * pair.max_pressure
+        zone = pressure.zone[on]
         centre = x[zone].mean(axis=0)
         direction = np.linalg.svd(x[zone] - centre, full_matrices=False)[2][0] if zone.sum() > 1 else np.array([1.0, 0.0])
         s = (x - centre) @ direction

@@ -223,4 +223,5 @@ def test_contact_pressure_through_a_flat_layer(method):
     surface = (contact.body == upper.body) & np.isclose(contact.X[:, 1], 1.2)
     pressure = contact.pressure[surface]
     assert pressure.size == 9 and np.all(np.abs(pressure / upper.force[1] - 1) < 0.05)
+    assert contact.zone[surface].all() and not contact.zone[(contact.body == upper.body) & (contact.X[:, 1] > 2.0)].any()
     assert result.steps[-1]["contact"][0]["force"] == pytest.approx(list(lower.force))
