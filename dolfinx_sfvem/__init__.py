@@ -25,7 +25,7 @@ from . import meshes
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
 from .fem import P2Discretization
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .problem import ContactProblem
 from .solver import SolveFailed, set_petsc_options
 from .space import VEMSpace

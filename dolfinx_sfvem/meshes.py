@@ -1,7 +1,7 @@
 """Polygonal meshes for the paper's benchmarks: duals of gmsh triangle meshes, structured
 quads, hanging-node gluing, gmsh ``.msh`` input and a small ``.npz`` format.
 
-Every generator returns a :class:`~dolfinx_sfvem.mesh.PolygonMesh` whose polygons carry an
+Every generator returns a :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` whose polygons carry an
 integer region tag (:data:`SOLID`, :data:`MEDIUM`, ...). Meshes of different densities are
 glued by concatenation with coincident points merged (:func:`glue`); ``PolygonMesh`` then
 inserts every vertex lying strictly inside a neighbour's straight edge into that neighbour
@@ -28,7 +28,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
 
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 
 #: region tag of the solid bodies (further solids: 3, 4, ...)
 SOLID = 1

@@ -28,7 +28,7 @@ from petsc4py import PETSc
 from . import _compat, post
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 CHECKPOINT = "checkpoint.npz"

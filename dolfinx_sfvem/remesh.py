@@ -1,7 +1,7 @@
 """Triangle meshes of the geometry of a polygon mesh, for the P2 FEM reference.
 
 :func:`triangulate` extracts every region's boundary loops (outer loops and holes) from a
-:class:`~dolfinx_sfvem.mesh.PolygonMesh` and meshes the regions again with gmsh at a
+:class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` and meshes the regions again with gmsh at a
 requested size ``h``: every polygon-mesh vertex on an outer boundary or a region
 interface becomes a gmsh point, every boundary/interface edge a gmsh line shared by the
 regions on both sides. The triangle mesh therefore has the same regions, follows the
@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .meshes import gmsh_session, model_cells
 from .polygon import point_location, signed_area
 

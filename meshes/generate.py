@@ -32,7 +32,7 @@ import typing
 import numpy as np
 
 from dolfinx_sfvem import meshes, post
-from dolfinx_sfvem.mesh import PolygonMesh
+from dolfinx_sfvem.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.projection import build_projections
 
 HERE = pathlib.Path(__file__).resolve().parent
