@@ -9,7 +9,7 @@ interfaces exactly and has a vertex at every named point of a benchmark (load po
 gap points), which are polygon vertices on boundaries.
 
 Consequence: boundary and interface segments are never longer than the polygon mesh's
-edges there (for the dual meshes of :mod:`~dolfinx_sfvem.meshes` about half the
+edges there (for the dual meshes of :mod:`~dolfinx_sfvem.meshing.dual` about half the
 polygon size); only the interior follows ``h``.
 
 :func:`matched_triangulation` picks ``h`` so that the P2 unknowns match the SFVEM
@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .polygon_mesh import PolygonMesh
-from .meshes import gmsh_session, model_cells
+from .meshing.gmsh_io import gmsh_session, model_cells
 from .polygon import point_location, signed_area
 
 
