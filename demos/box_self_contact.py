@@ -216,7 +216,7 @@ def _label(params: dict) -> str:
             f"{params['regularization']}{scaling}")
 
 
-def _read_summary(out: pathlib.Path) -> RunSummary | None:
+def _broadcast_summary(out: pathlib.Path) -> RunSummary | None:
     """summary.json of ``out`` read on rank 0 and broadcast (None if absent or unreadable)."""
     return MPI.COMM_WORLD.bcast(read_summary(out) if MPI.COMM_WORLD.rank == 0 else None, root=0)
 
@@ -225,7 +225,7 @@ def single(args: argparse.Namespace) -> int:
     """One run: solve, write the outputs and the two load-path plots; returns the exit code."""
     problem, observers = build(args)
     code = common.run(problem, args, observers)
-    summary = _read_summary(args.out)
+    summary = _broadcast_summary(args.out)
     if MPI.COMM_WORLD.rank == 0 and summary is not None:
         plot_run(args.out, summary, args.uy)
     return code
@@ -256,7 +256,7 @@ def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | No
         regularization, beta, alpha_r, gamma, mesh)
     run_args.out = run_dir(args.out, regularization, beta, alpha_r, gamma, mesh)
     run_args.resume = None
-    previous = _read_summary(run_args.out)
+    previous = _broadcast_summary(run_args.out)
     state = run_state(previous, {k: getattr(run_args, k) for k in RUN_KEYS}, run_args.out)
     rank0 = MPI.COMM_WORLD.rank == 0
     if state == "done":
@@ -274,7 +274,7 @@ def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | No
     if rank0:
         print(f"[sweep] {run_args.out}: {'resuming' if status == 'resumed' else 'running'}", flush=True)
     single(run_args)
-    summary = _read_summary(run_args.out)
+    summary = _broadcast_summary(run_args.out)
     if summary is not None and summary.interrupted:
         status = "stopped"
     return summary, status
