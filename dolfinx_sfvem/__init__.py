@@ -18,7 +18,7 @@ P2Discretization
 linear_elastic_stiffness
     The plane-strain linear-elastic SFVEM stiffness of one polygon.
 meshes
-    gmsh generators of the paper's geometries.
+    The paper's geometries (benchmarks.py) and the mesh-making tools (meshing/) in one namespace.
 """
 from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from . import meshes
