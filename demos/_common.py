@@ -22,6 +22,7 @@ the library), reported on stderr without a traceback.
 from __future__ import annotations
 
 import argparse
+import csv
 import math
 import pathlib
 import sys
@@ -113,6 +114,19 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
                    help="continue the stopped run in DIR from its last converged step (same options as that run)")
     return p
+
+
+def add_uy(p: argparse.ArgumentParser, default: float, where: str, note: str = "") -> None:
+    """``--uy``: the prescribed vertical displacement of ``where`` at load factor 1."""
+    p.add_argument("--uy", type=finite_float, default=default,
+                   help=f"vertical displacement of {where} (default %(default)s{note})")
+
+
+def add_min_increment(p: argparse.ArgumentParser) -> None:
+    """``--min-increment``: the smallest load-factor increment of the cut-back (to ``solve``)."""
+    p.add_argument("--min-increment", type=positive_float, default=None,
+                   help="smallest load-factor increment of the automatic cut-back, <= 1/steps "
+                        "(default (1/steps)/2^10)")
 
 
 def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
@@ -227,6 +241,14 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'} | "
               f"wall time: {result.wall_time_s:.1f} s | dofs: {result.summary['dofs']}", flush=True)
     return 0 if result.converged else 1
+
+
+def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:
+    """The rows of load_path.csv as floats (empty if the file is missing)."""
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
 
 
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],

@@ -86,7 +86,6 @@ e.g. ``-snes_monitor -snes_linesearch_type bt``.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import pathlib
 import sys
@@ -95,9 +94,12 @@ import typing
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import post
+from dolfinx_sfvem import markdown, paper, post
+from dolfinx_sfvem.figure_output import save_png
+from dolfinx_sfvem.run_summary import RunSummary, read_summary
 
 import _common as common
+from restart import run_state
 
 #: solid bulk and shear modulus (the medium has the same mu)
 K, MU = 20.0, 10.0
@@ -106,32 +108,7 @@ T = 0.1
 #: initial gap between the inner surfaces of the flanges (H - 2 T)
 G0 = 0.5 - 2 * T
 #: default exponent of the exp(-beta J) scaling of the regularization (paper §5.1, Eq. 58)
-BETA = 5.0
-
-#: Paper Table 2 (Xu & Wriggers, §5.1; the paper's table): final gap g at u_y = -1 for huhu_lulu with
-#: exp(-5 J) scaling; (alpha_r, gamma) -> (mesh 1, mesh 2, mesh 3).
-PAPER_TABLE2: dict[tuple[float, float], tuple[float, float, float]] = {
-    (10.0, 1e-4): (8.6882e-3, 8.7000e-3, 7.5000e-3),
-    (10.0, 1e-5): (2.8000e-3, 1.9476e-3, 1.7330e-3),
-    (10.0, 1e-6): (7.3795e-4, 8.2579e-4, 4.1061e-4),
-    (1.0, 1e-4): (7.9000e-3, 7.2327e-3, 7.0869e-3),
-    (1.0, 1e-5): (2.1822e-3, 2.1104e-3, 1.7138e-3),
-    (1.0, 1e-6): (5.1084e-4, 5.3938e-4, 4.9040e-4),
-    (0.1, 1e-4): (7.6000e-3, 7.3281e-3, 7.0544e-3),
-    (0.1, 1e-5): (1.8730e-3, 1.8934e-3, 1.7435e-3),
-    (0.1, 1e-6): (4.8469e-4, 4.8581e-4, 4.6363e-4),
-}
-#: Paper Table 3 (§5.1; the paper's table): final gap for gamma = 1e-6, alpha_r = 10 and the
-#: regularizations of Eqs. 9, 15, 16 (unscaled); regularization -> (mesh 1, mesh 2, mesh 3).
-#: (The rotation row repeats Table 2's alpha_r = 1 values on meshes 1, 2 and its alpha_r = 10 value
-#: on mesh 3, as printed in the paper.)
-PAPER_TABLE3: dict[str, tuple[float, float, float]] = {
-    "huhu_lulu": (5.0282e-4, 5.0988e-4, 4.9311e-4),
-    "rotation": (5.1084e-4, 5.3938e-4, 4.1061e-4),
-    "tan_rotation": (5.1127e-4, 5.4095e-4, 4.0902e-4),
-}
-TABLE3_GAMMA, TABLE3_ALPHA_R = 1e-6, 10.0
-FIG4_ALPHA_R, FIG4_MESH = 0.1, 3
+BETA = paper.TABLE2_BETA
 
 #: options that only steer a sweep (not stored in the parameters of the single runs)
 SWEEP_OPTIONS = ("table2", "table3", "fig4", "meshes", "alpha_rs", "gammas", "regularizations", "retry_failed")
@@ -142,13 +119,12 @@ RUN_KEYS = ("method", "steps", "h", "uy", "mesh", "gamma", "alpha_r", "regulariz
 # --------------------------------------------------------------------------- command line
 def make_parser() -> argparse.ArgumentParser:
     """The shared demo options with the box defaults, plus ``--uy``, ``--no-beta`` and the sweeps."""
-    p = common.parser("box_self_contact", __doc__, steps=100, meshes=(1, 2, 3), h=0.05, h_max=T, gamma=1e-6,
-                      alpha_r=0.1, regularization="huhu_lulu", beta=BETA,
+    p = common.parser("box_self_contact", __doc__, steps=100, meshes=(1, 2, 3), h=paper.DEFAULT_H["box_self_contact"],
+                      h_max=T, gamma=1e-6, alpha_r=0.1, regularization="huhu_lulu", beta=BETA,
                       mesh_help="medium density: quads of size h/1, h/2, h/3 (solid unchanged)")
     p.add_argument("--no-beta", dest="beta", action="store_const", const=None,
                    help="switch the exp(-beta J) scaling off")
-    p.add_argument("--uy", type=common.finite_float, default=-1.0,
-                   help="vertical displacement of the middle of the top (default %(default)s)")
+    common.add_uy(p, -1.0, "the middle of the top")
     study = p.add_argument_group("paper studies (one run per sub-directory of --out)")
     which = study.add_mutually_exclusive_group()
     which.add_argument("--table2", action="store_true", help="alpha_r x gamma x mesh sweep of Table 2")
@@ -196,12 +172,12 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     return problem, {"gap": gap, "top_uy": top, "bottom_uy": bottom}
 
 
-def load_path(summary: dict, uy: float) -> dict[str, list[float]]:
+def load_path(summary: RunSummary, uy: float) -> dict[str, list[float]]:
     """Prescribed displacement -u_y, gap and force -R_y at the load point of the converged steps."""
-    steps = [s for s in summary["steps"] if s["converged"]]
-    return {"displacement": [0.0] + [-uy * s["load"] for s in steps],
-            "gap": [G0] + [s["extra"]["gap"] for s in steps],
-            "force": [0.0] + [-s["reaction"]["load"][1] for s in steps]}
+    steps = summary.converged_steps
+    return {"displacement": [0.0] + [-uy * s.load for s in steps],
+            "gap": [G0] + [s.extra["gap"] for s in steps],
+            "force": [0.0] + [s.force("load") for s in steps]}
 
 
 def _pyplot():
@@ -211,19 +187,11 @@ def _pyplot():
     return plt
 
 
-def _save(fig, path: pathlib.Path) -> None:
-    """Save a figure atomically (as post does)."""
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, bbox_inches="tight")
-    _pyplot().close(fig)
-    tmp.replace(path)
-
-
-def plot_run(out: pathlib.Path, summary: dict, uy: float) -> None:
+def plot_run(out: pathlib.Path, summary: RunSummary, uy: float) -> None:
     """gap.png and reaction.png of one run (rank 0)."""
     plt = _pyplot()
     data = load_path(summary, uy)
-    title = _label(summary["parameters"])
+    title = _label(summary.parameters)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=110, layout="constrained")
     for ax, scale in zip(axes, ("linear", "log")):
         ax.plot(data["displacement"], data["gap"], ".-", ms=3)
@@ -232,14 +200,14 @@ def plot_run(out: pathlib.Path, summary: dict, uy: float) -> None:
         ax.set_ylabel("gap $g$")
         ax.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"gap between the flanges at mid-span: {title}")
-    _save(fig, out / "gap.png")
+    save_png(fig, out / "gap.png", bbox_inches="tight")
     fig, ax = plt.subplots(figsize=(5.5, 4), dpi=110)
     ax.plot(data["displacement"], data["force"], ".-", ms=3)
     ax.set_xlabel("prescribed displacement $-u_y$")
     ax.set_ylabel("force $-R_y$ at the load point")
     ax.grid(True, alpha=0.3)
     ax.set_title(title, fontsize=9)
-    _save(fig, out / "reaction.png")
+    save_png(fig, out / "reaction.png", bbox_inches="tight")
 
 
 def _label(params: dict) -> str:
@@ -248,22 +216,16 @@ def _label(params: dict) -> str:
             f"{params['regularization']}{scaling}")
 
 
-def _read_summary(out: pathlib.Path) -> dict | None:
+def _broadcast_summary(out: pathlib.Path) -> RunSummary | None:
     """summary.json of ``out`` read on rank 0 and broadcast (None if absent or unreadable)."""
-    data = None
-    if MPI.COMM_WORLD.rank == 0:
-        try:
-            data = json.loads((out / "summary.json").read_text())
-        except (OSError, ValueError):
-            data = None
-    return MPI.COMM_WORLD.bcast(data, root=0)
+    return MPI.COMM_WORLD.bcast(read_summary(out) if MPI.COMM_WORLD.rank == 0 else None, root=0)
 
 
 def single(args: argparse.Namespace) -> int:
     """One run: solve, write the outputs and the two load-path plots; returns the exit code."""
     problem, observers = build(args)
     code = common.run(problem, args, observers)
-    summary = _read_summary(args.out)
+    summary = _broadcast_summary(args.out)
     if MPI.COMM_WORLD.rank == 0 and summary is not None:
         plot_run(args.out, summary, args.uy)
     return code
@@ -283,7 +245,7 @@ def _fmt(value: float) -> str:
 
 
 def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | None, alpha_r: float,
-              gamma: float, mesh: int) -> tuple[dict | None, str]:
+              gamma: float, mesh: int) -> tuple[RunSummary | None, str]:
     """Run (or reuse) one run of a sweep; returns its summary and how it was obtained.
 
     The status is ``done`` (converged before, skipped), ``failed-before`` (skipped, see
@@ -294,39 +256,38 @@ def sweep_run(args: argparse.Namespace, *, regularization: str, beta: float | No
         regularization, beta, alpha_r, gamma, mesh)
     run_args.out = run_dir(args.out, regularization, beta, alpha_r, gamma, mesh)
     run_args.resume = None
-    previous = _read_summary(run_args.out)
-    same = previous is not None and all(previous["parameters"].get(k) == getattr(run_args, k) for k in RUN_KEYS)
+    previous = _broadcast_summary(run_args.out)
+    state = run_state(previous, {k: getattr(run_args, k) for k in RUN_KEYS}, run_args.out)
     rank0 = MPI.COMM_WORLD.rank == 0
-    if same and previous["converged"]:
+    if state == "done":
         if rank0:
             print(f"[sweep] {run_args.out}: converged before, skipped", flush=True)
         return previous, "done"
     status = "ran"
-    if same and not args.retry_failed and previous["message"] and not sf.problem.interrupted(previous):
+    if state == "failed" and not args.retry_failed:
         if rank0:
-            print(f"[sweep] {run_args.out}: failed before ({previous['message']}), skipped "
+            print(f"[sweep] {run_args.out}: failed before ({previous.message}), skipped "
                   f"(--retry-failed repeats it)", flush=True)
         return previous, "failed-before"
-    if same and sf.problem.interrupted(previous) and (run_args.out / sf.problem.CHECKPOINT).exists():
+    if state == "interrupted":
         run_args.resume, status = run_args.out, "resumed"
     if rank0:
         print(f"[sweep] {run_args.out}: {'resuming' if status == 'resumed' else 'running'}", flush=True)
     single(run_args)
-    summary = _read_summary(run_args.out)
-    if summary is not None and sf.problem.interrupted(summary):
+    summary = _broadcast_summary(run_args.out)
+    if summary is not None and summary.interrupted:
         status = "stopped"
     return summary, status
 
 
-def _final(summary: dict | None) -> dict:
+def _final(summary: RunSummary | None) -> dict:
     """Final gap, load reached, Newton iterations and wall time of a run's summary."""
-    steps = [s for s in summary["steps"] if s["converged"]] if summary else []
-    if not steps:
+    last = summary.final_step if summary else None
+    if last is None:
         return {"gap": None, "load": 0.0, "converged": False, "newton_iterations": 0, "wall_time_s": None,
-                "dofs": summary["dofs"] if summary else None}
-    return {"gap": steps[-1]["extra"]["gap"], "load": steps[-1]["load"], "converged": bool(summary["converged"]),
-            "newton_iterations": sum(s["newton_iterations"] for s in summary["steps"]),
-            "wall_time_s": summary["wall_time_s"], "dofs": summary["dofs"]}
+                "dofs": summary.dofs if summary else None}
+    return {"gap": last.extra["gap"], "load": last.load, "converged": summary.converged,
+            "newton_iterations": summary.newton_iterations, "wall_time_s": summary.wall_time_s, "dofs": summary.dofs}
 
 
 def _cell(entry: dict) -> str:
@@ -344,14 +305,14 @@ def write_table(out: pathlib.Path, name: str, title: str, row_names: typing.Sequ
                 rows: typing.Sequence[tuple], meshes: typing.Sequence[int], entries: dict) -> None:
     """``<name>.md`` and ``<name>.json``: ours, the paper's and the ratio per row and mesh (rank 0)."""
     header = list(row_names) + [f"{label} mesh {m}" for m in meshes for label in ("g", "paper", "g/paper")]
-    lines = [f"# {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for row in rows:
-        cells = [_fmt(v) if isinstance(v, float) else str(v) for v in row]
+    def cells(row: tuple) -> list[str]:
+        values = [_fmt(v) if isinstance(v, float) else str(v) for v in row]
         for m in meshes:
             e = entries[(*row, m)]
             ratio = _ratio(e)
-            cells += [_cell(e), f"{e['paper']:.4e}", "—" if ratio is None else f"{ratio:.3f}"]
-        lines.append("| " + " | ".join(cells) + " |")
+            values += [_cell(e), f"{e['paper']:.4e}", "—" if ratio is None else f"{ratio:.3f}"]
+        return values
+    lines = [f"# {title}", ""] + markdown.table(header, [cells(row) for row in rows])
     lines += ["", "g: our gap at the end of the run (marked with the load factor reached when short of the "
                   "full load); paper: the paper's value; g/paper: ratio (full load only)."]
     post.atomic_write_text(out / f"{name}.md", "\n".join(lines) + "\n")
@@ -384,21 +345,22 @@ def table2(args: argparse.Namespace) -> int:
 
 def table3(args: argparse.Namespace) -> int:
     """The regularization x mesh sweep of paper Table 3 (gamma = 1e-6, alpha_r = 10, unscaled)."""
-    regularizations = args.regularizations or list(PAPER_TABLE3)
+    regularizations = args.regularizations or list(paper.TABLE3)
     meshes = args.meshes or [1, 2, 3]
     rows = [(r,) for r in regularizations]
     entries = {}
     for (r,) in rows:
         for m in meshes:
-            summary, status = sweep_run(args, regularization=r, beta=None, alpha_r=TABLE3_ALPHA_R,
-                                        gamma=TABLE3_GAMMA, mesh=m)
+            summary, status = sweep_run(args, regularization=r, beta=None, alpha_r=paper.TABLE3_ALPHA_R,
+                                        gamma=paper.TABLE3_GAMMA, mesh=m)
             if status == "stopped":
                 return 1
-            entries[(r, m)] = {**_final(summary), "paper": PAPER_TABLE3[r][m - 1], "dir": str(
-                run_dir(args.out, r, None, TABLE3_ALPHA_R, TABLE3_GAMMA, m).relative_to(args.out)), "status": status}
+            directory = run_dir(args.out, r, None, paper.TABLE3_ALPHA_R, paper.TABLE3_GAMMA, m)
+            entries[(r, m)] = {**_final(summary), "paper": paper.TABLE3[r][m - 1],
+                               "dir": str(directory.relative_to(args.out)), "status": status}
     if MPI.COMM_WORLD.rank == 0:
         write_table(args.out, "table3", f"Paper Table 3: gap g at u_y = {args.uy:g} ({args.steps} steps), "
-                    f"gamma = {TABLE3_GAMMA:g}, alpha_r = {TABLE3_ALPHA_R:g}, no scaling, h = {args.h:g}",
+                    f"gamma = {paper.TABLE3_GAMMA:g}, alpha_r = {paper.TABLE3_ALPHA_R:g}, no scaling, h = {args.h:g}",
                     ("regularization",), rows, meshes, entries)
         print(f"wrote {args.out / 'table3.md'} and table3.json", flush=True)
     return 0 if all(e["converged"] for e in entries.values()) else 1
@@ -407,15 +369,15 @@ def table3(args: argparse.Namespace) -> int:
 def fig4(args: argparse.Namespace) -> int:
     """Gap and reaction over the load for several gamma, alpha_r = 0.1, mesh 3 (paper Fig. 4)."""
     gammas = args.gammas or [1e-4, 1e-5, 1e-6]
-    meshes = args.meshes or [FIG4_MESH]
+    meshes = args.meshes or [paper.FIG4_MESH]
     curves, all_converged = [], True
     for m in meshes:
         for g in gammas:
-            summary, status = sweep_run(args, regularization="huhu_lulu", beta=BETA, alpha_r=FIG4_ALPHA_R,
+            summary, status = sweep_run(args, regularization="huhu_lulu", beta=BETA, alpha_r=paper.FIG4_ALPHA_R,
                                         gamma=g, mesh=m)
             if status == "stopped":
                 return 1
-            all_converged &= bool(summary and summary["converged"])
+            all_converged &= bool(summary and summary.converged)
             if summary is not None:
                 curves.append((f"gamma = {_fmt(g)}" + (f", mesh {m}" if len(meshes) > 1 else ""), summary))
     if MPI.COMM_WORLD.rank == 0:
@@ -434,22 +396,22 @@ def fig4(args: argparse.Namespace) -> int:
             ax.set_title(name)
             ax.grid(True, which="both", alpha=0.3)
             ax.legend()
-        fig.suptitle(f"Paper Fig. 4: alpha_r = {FIG4_ALPHA_R:g}, huhu_lulu with exp(-{BETA:g} J), "
+        fig.suptitle(f"Paper Fig. 4: alpha_r = {paper.FIG4_ALPHA_R:g}, huhu_lulu with exp(-{BETA:g} J), "
                      f"mesh {', '.join(map(str, meshes))}")
-        _save(fig, args.out / "fig4.png")
+        save_png(fig, args.out / "fig4.png", bbox_inches="tight")
         print(f"wrote {args.out / 'fig4.png'}", flush=True)
     return 0 if all_converged else 1
 
 
 def _paper2(alpha_r: float, gamma: float, mesh: int) -> float:
-    return PAPER_TABLE2[(alpha_r, gamma)][mesh - 1]
+    return paper.TABLE2[(alpha_r, gamma)][mesh - 1]
 
 
 def _check_known(alpha_rs: typing.Sequence[float], gammas: typing.Sequence[float]) -> None:
     """The Table 2 sweep only runs parameters that the paper reports."""
     for a in alpha_rs:
         for g in gammas:
-            if not any(math.isclose(a, pa) and math.isclose(g, pg) for pa, pg in PAPER_TABLE2):
+            if not any(math.isclose(a, pa) and math.isclose(g, pg) for pa, pg in paper.TABLE2):
                 raise ValueError(f"Table 2 has no entry for alpha_r = {a:g}, gamma = {g:g}; "
                                  f"alpha_r in {{10, 1, 0.1}}, gamma in {{1e-4, 1e-5, 1e-6}}")
 
@@ -461,9 +423,9 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         if args.resume is not None:
             raise ValueError("--resume is for a single run; a sweep resumes its stopped runs by itself")
         if args.alpha_rs is not None:
-            args.alpha_rs = [next((pa for pa, _ in PAPER_TABLE2 if math.isclose(a, pa)), a) for a in args.alpha_rs]
+            args.alpha_rs = [next((pa for pa, _ in paper.TABLE2 if math.isclose(a, pa)), a) for a in args.alpha_rs]
         if args.gammas is not None:
-            args.gammas = [next((pg for _, pg in PAPER_TABLE2 if math.isclose(g, pg)), g) for g in args.gammas]
+            args.gammas = [next((pg for _, pg in paper.TABLE2 if math.isclose(g, pg)), g) for g in args.gammas]
         return table2(args) if args.table2 else table3(args) if args.table3 else fig4(args)
     return single(args)
 

@@ -63,6 +63,7 @@ import sys
 import typing
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem import paper
 
 import _common as common
 
@@ -76,11 +77,10 @@ FEM_CELLS = ("quads", "triangles")
 
 def make_parser() -> argparse.ArgumentParser:
     """The shared demo options with the C-box defaults, plus ``--uy``."""
-    p = common.parser("cbox", __doc__, steps=50, meshes=(1, 2), h=0.05, h_max=T, gamma=1e-5, alpha_r=1.0,
-                      regularization="rotation",
+    p = common.parser("cbox", __doc__, steps=50, meshes=(1, 2), h=paper.DEFAULT_H["cbox"], h_max=T, gamma=1e-5,
+                      alpha_r=1.0, regularization="rotation",
                       mesh_help="medium density: 1 = quads of size h, 2 = h/2 (solid unchanged)")
-    p.add_argument("--uy", type=common.finite_float, default=-0.5,
-                   help="vertical displacement of the top right point (default %(default)s)")
+    common.add_uy(p, -0.5, "the top right point")
     p.add_argument("--column", type=common.positive_float, default=sf.meshes.CBOX_COLUMN,
                    help="width of the medium column right of the beams (default %(default)s)")
     p.add_argument("--fem-cells", choices=FEM_CELLS, default=None,

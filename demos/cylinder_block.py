@@ -38,6 +38,7 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem.run_summary import read_summary
 
 import _common as common
 
@@ -49,14 +50,14 @@ CYLINDER = 3
 def make_parser() -> argparse.ArgumentParser:
     p = common.parser("cylinder_block", __doc__, steps=20, meshes=(1,), h=0.05, gamma=1e-6, alpha_r=1.0,
                       regularization="rotation")
-    p.add_argument("--uy", type=common.finite_float, default=-0.3, help="u_y of the cylinder top (default %(default)s)")
+    common.add_uy(p, -0.3, "the cylinder top")
     p.add_argument("--gap", type=common.positive_float, default=0.2, help="initial gap (default %(default)s)")
     p.add_argument("--stiffness", type=common.positive_float, default=100.0,
                    help="cylinder moduli / block moduli (default %(default)s)")
     p.add_argument("--h-far", type=common.positive_float, default=None, help="mesh size away from the contact")
     p.add_argument("--cells", choices=("triangles", "dual"), default="triangles")
     p.add_argument("--contact-tol", type=common.positive_float, default=None)
-    p.add_argument("--min-increment", type=common.positive_float, default=None)
+    common.add_min_increment(p)
     return p
 
 
@@ -160,15 +161,13 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         print(f"cylinder_block: h = {args.h}, gamma = {args.gamma}, {args.cells}", flush=True)
     code = common.run(problem, args, observers, min_increment=args.min_increment)
     if problem.comm.rank == 0:
-        import json
-        summary = json.loads((args.out / "summary.json").read_text())
-        last = [s for s in summary["steps"] if s["converged"]]
-        if last:
-            s = last[-1]
-            force = -s["reaction"]["load"][1]
+        summary = read_summary(args.out)
+        s = summary.final_step if summary else None
+        if s is not None:
+            force = s.force("load")
             a_h = hertz_half_width(force)
-            print(f"final: load {s['load']:.4g}, force (half model) {force:.5g}, gap {s['extra']['gap']:.3e}, "
-                  f"half-width {s['extra']['half_width']:.4f}, Hertz {a_h:.4f}", flush=True)
+            print(f"final: load {s.load:.4g}, force (half model) {force:.5g}, gap {s.extra['gap']:.3e}, "
+                  f"half-width {s.extra['half_width']:.4f}, Hertz {a_h:.4f}", flush=True)
     return code
 
 

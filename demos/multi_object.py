@@ -67,10 +67,7 @@ e.g. ``-snes_monitor -snes_linesearch_type bt``.
 from __future__ import annotations
 
 import argparse
-import csv
 import functools
-import json
-import os
 import pathlib
 import sys
 import typing
@@ -80,6 +77,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem import paper
+from dolfinx_sfvem.figure_output import save_png
+from dolfinx_sfvem.run_summary import read_summary
 
 import _common as common
 
@@ -87,8 +87,8 @@ import _common as common
 K_BLOCK, MU_BLOCK = 50.0, 10.0
 #: disc moduli
 K_DISC, MU_DISC = 50000.0, 10000.0
-#: initial gap between a disc and the block (meshes.multi_object default)
-GAP = 0.1
+#: initial gap between a disc and the block
+GAP = paper.MULTI_OBJECT_GAP
 #: number of discs
 N_DISCS = 7
 #: discs whose displacement is recorded
@@ -100,17 +100,14 @@ SNES_ATOL = "1e-8"
 
 def make_parser() -> argparse.ArgumentParser:
     """The shared demo options with the multi-object defaults, plus ``--bc --uy --min-increment``."""
-    p = common.parser("multi_object", __doc__, steps=30, meshes=(1,), h=0.04, h_max=GAP, gamma=1e-4,
-                      alpha_r=10.0, regularization="rotation",
+    p = common.parser("multi_object", __doc__, steps=30, meshes=(1,), h=paper.DEFAULT_H["multi_object"], h_max=GAP,
+                      gamma=1e-4, alpha_r=10.0, regularization="rotation",
                       mesh_help="mesh variant (only 1: dual polygons everywhere)")
     p.add_argument("--bc", type=int, choices=(1, 2), default=1,
                    help="1: block clamped at both ends, discs u_x = 0; 2: block clamped left, "
                         "simply supported right, discs u_x free (default %(default)s)")
-    p.add_argument("--uy", type=common.finite_float, default=-0.3,
-                   help="vertical displacement of the discs' flat tops (default %(default)s = -3 x gap)")
-    p.add_argument("--min-increment", type=common.positive_float, default=None,
-                   help="smallest load-factor increment of the automatic cut-back, <= 1/steps "
-                        "(default (1/steps)/2^10)")
+    common.add_uy(p, -0.3, "the discs' flat tops", " = -3 x gap")
+    common.add_min_increment(p)
     return p
 
 
@@ -157,30 +154,13 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     return problem, observers
 
 
-def problem_steps(out: pathlib.Path) -> list[dict]:
-    """The converged steps of summary.json (empty if it is missing)."""
-    path = out / "summary.json"
-    if not path.exists():
-        return []
-    with open(path) as f:
-        return [s for s in json.load(f)["steps"] if s["converged"]]
-
-
-def read_rows(path: pathlib.Path) -> list[dict[str, float]]:
-    """The rows of load_path.csv as floats (empty if the file is missing)."""
-    if not path.exists():
-        return []
-    with open(path, newline="") as f:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
-
-
 def plot_reaction(out: pathlib.Path) -> None:
     """reaction.png: total disc force -R_y against -u_y; disc displacements u_x against -u_y."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = read_rows(out / "load_path.csv")
+    rows = common.read_load_path(out / "load_path.csv")
     if not rows:
         return
     d = [0.0] + [-r[f"disc{OBSERVED[0]}_uy"] for r in rows]
@@ -196,10 +176,7 @@ def plot_reaction(out: pathlib.Path) -> None:
         ax.set_xlabel("disc displacement -u_y")
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = out / ".reaction.png.tmp.png"
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, out / "reaction.png")
+    save_png(fig, out / "reaction.png")
 
 
 def plot_zoom(path: pathlib.Path, mesh, u, windows: typing.Sequence[tuple[float, float]], title: str) -> None:
@@ -225,10 +202,7 @@ def plot_zoom(path: pathlib.Path, mesh, u, windows: typing.Sequence[tuple[float,
         ax.set_aspect("equal")
         ax.set_title(f"{title}, reference x in [{x0:g}, {x1:g}]", fontsize=9)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path)
+    save_png(fig, path)
 
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
@@ -242,7 +216,8 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     u = problem.point_displacements()                     # collective; the last converged state
     if MPI.COMM_WORLD.rank == 0:
         plot_reaction(args.out)
-        load = max([s["load"] for s in problem_steps(args.out)], default=0.0)
+        summary = read_summary(args.out)
+        load = summary.load_reached if summary else 0.0
         plot_zoom(args.out / "zoom.png", problem.disc.output_mesh, u, ((0.0, 2.6), (2.7, 5.3)),
                   f"bc {args.bc}, load factor {load:.3g}")
     return code

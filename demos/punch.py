@@ -62,8 +62,6 @@ Further options: ``python3 demos/punch.py --help``; PETSc options are passed thr
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 import pathlib
 import sys
 import typing
@@ -71,6 +69,8 @@ import typing
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem import paper
+from dolfinx_sfvem.figure_output import save_png
 
 import _common as common
 
@@ -78,22 +78,20 @@ import _common as common
 K, MU = 5 / 3, 5 / 14
 #: punch moduli by ``--punch``
 PUNCH = {"soft": (K, MU), "rigid": (500 / 3, 500 / 14)}
-#: initial gap between the punch tip and the block (meshes.punch default)
-GAP = 1.0
+#: initial gap between the punch tip and the block
+GAP = paper.PUNCH_GAP
 
 
 def make_parser() -> argparse.ArgumentParser:
     """The shared demo options with the punch defaults, plus ``--uy --punch --min-increment``."""
-    p = common.parser("punch", __doc__, steps=130, meshes=(1,), h=0.05, h_max=0.25, gamma=1e-4, alpha_r=1.0,
-                      regularization="rotation", mesh_help="mesh variant (only 1: dual polygons everywhere)")
-    p.add_argument("--uy", type=common.finite_float, default=-1.3,
-                   help="vertical displacement of the punch top (default %(default)s)")
+    p = common.parser("punch", __doc__, steps=130, meshes=(1,), h=paper.DEFAULT_H["punch"], h_max=0.25, gamma=1e-4,
+                      alpha_r=1.0, regularization="rotation",
+                      mesh_help="mesh variant (only 1: dual polygons everywhere)")
+    common.add_uy(p, -1.3, "the punch top")
     p.add_argument("--punch", choices=tuple(PUNCH), default="soft",
                    help="punch material: soft = block's K = 5/3, mu = 5/14; rigid = K = 500/3, mu = 500/14 "
                         "(default %(default)s)")
-    p.add_argument("--min-increment", type=common.positive_float, default=None,
-                   help="smallest load-factor increment of the automatic cut-back, <= 1/steps "
-                        "(default (1/steps)/2^10)")
+    common.add_min_increment(p)
     return p
 
 
@@ -137,7 +135,7 @@ def plot_reaction(out: pathlib.Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = read_rows(out / "load_path.csv")
+    rows = common.read_load_path(out / "load_path.csv")
     if not rows:
         return
     d = [-r["punch_uy"] for r in rows]
@@ -151,18 +149,7 @@ def plot_reaction(out: pathlib.Path) -> None:
     for ax in (ax1, ax2):
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = out / ".reaction.png.tmp.png"
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, out / "reaction.png")
-
-
-def read_rows(path: pathlib.Path) -> list[dict[str, float]]:
-    """The rows of load_path.csv as floats (empty if the file is missing)."""
-    if not path.exists():
-        return []
-    with open(path, newline="") as f:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    save_png(fig, out / "reaction.png")
 
 
 def main(argv: typing.Sequence[str] | None = None) -> int:

@@ -34,7 +34,12 @@ import signal
 import sys
 import typing
 
-import results as R
+from dolfinx_sfvem import markdown
+from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from results import print_plan
+from results_plan import METHODS, REPO, Run, select
+from results_report import field, final_step, fmt, force, machine, method_label, relative, status
+from results_runner import execute
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,53 +98,54 @@ def run_name(study: Study, size: Size, method: str) -> str:
     return "-".join(["refine", study.key, *(a.lstrip("-") for a in size.args), method])
 
 
-def plan(quick: bool, ranks: int) -> list[tuple[Study, Size, str, R.Run]]:
+def plan(quick: bool, ranks: int) -> list[tuple[Study, Size, str, Run]]:
     """(study, size, method, run) of every run, in the order they are made."""
     studies = STUDIES[:1] if quick else STUDIES
-    return [(study, size, method, R.Run(run_name(study, size, method), study.demo,
-                                        ("--method", method, *study.args, *size.args), ranks,
+    return [(study, size, method, Run(run_name(study, size, method), study.demo,
+                                      ("--method", method, *study.args, *size.args), ranks,
                                         run_name(study, size, method), size.seconds))
             for study in studies for size in (study.sizes[:QUICK_SIZES] if quick else study.sizes)
-            for method in R.METHODS]
+            for method in METHODS]
 
 
 # --------------------------------------------------------------------------- the page
-def smallest_gap(summary: dict | None) -> dict | None:
+def smallest_gap(summary: RunSummary | None) -> dict | None:
     """The gap record (value, place, regions) of the converged step with the smallest gap."""
-    gaps = [s["gap"] for s in R.converged_steps(summary) if s.get("gap") and s["gap"]["value"] is not None]
+    steps = summary.converged_steps if summary else []
+    gaps = [s.gap for s in steps if s.gap and s.gap["value"] is not None]
     return min(gaps, key=lambda g: g["value"], default=None)
 
 
-def expected(size: Size, summary: dict | None) -> bool | None:
+def expected(size: Size, summary: RunSummary | None) -> bool | None:
     """Whether the run ended as it should: full load without overlap, or (``may_stop``) any
     honest end; never converged with overlapping solids. None if not run."""
     if summary is None:
         return None
     gap = smallest_gap(summary)
     overlapping = gap is not None and gap["overlap"] > 1.0
-    if summary["converged"]:
+    if summary.converged:
         return not overlapping
-    return size.may_stop and not R.interrupted(summary)
+    return size.may_stop and not summary.interrupted
 
 
-def rows(study: Study, entries: typing.Sequence[tuple[Size, str, dict | None]]) -> list[list[str]]:
+def rows(study: Study, entries: typing.Sequence[tuple[Size, str, RunSummary | None]]) -> list[list[str]]:
     """One row per run; the force change is against the previous size of the same method and
     series (the next coarser mesh)."""
     out, previous = [], {}
     for size, method, summary in entries:
-        gap, last = smallest_gap(summary), R.final_step(summary)
-        final_gap = (last.get("gap") or {}).get("value")
-        force = R.force(last, study.force) if summary and summary["converged"] else None
+        gap, last = smallest_gap(summary), final_step(summary)
+        final_gap = ((last.gap if last else None) or {}).get("value")
+        final_force = force(last, study.force) if summary and summary.converged else None
         series = (method, size.series)
-        change = R.relative(previous.get(series), force)
-        if force is not None:
-            previous[series] = force
+        change = relative(previous.get(series), final_force)
+        if final_force is not None:
+            previous[series] = final_force
         ok = expected(size, summary)
-        out.append([size.label, R.method_label(method, summary), R.status(summary),
-                    R.fmt(summary and summary.get("dofs"), "d"), R.fmt(gap and gap["value"], "+.3e"),
-                    "—" if gap is None else f"({gap['x'][0]:.3f}, {gap['x'][1]:.3f})", R.fmt(final_gap, "+.3e"),
-                    R.fmt(force, ".5g"), R.fmt(change, "+.2%"), R.fmt(summary and R.total_newton(summary), "d"),
-                    R.fmt(summary and summary.get("wall_time_s"), ".0f"),
+        out.append([size.label, method_label(method, summary), status(summary),
+                    fmt(field(summary, "dofs"), "d"), fmt(gap and gap["value"], "+.3e"),
+                    "—" if gap is None else f"({gap['x'][0]:.3f}, {gap['x'][1]:.3f})", fmt(final_gap, "+.3e"),
+                    fmt(final_force, ".5g"), fmt(change, "+.2%"), fmt(field(summary, "newton_iterations"), "d"),
+                    fmt(field(summary, "wall_time_s"), ".0f"),
                     {None: "—", True: "yes", False: "**no**"}[ok]])
     return out
 
@@ -148,7 +154,7 @@ HEADER = ("mesh", "method", "status", "unknowns", "smallest gap", "at (deformed)
           "change vs coarser", "Newton iterations", "wall [s]", "as it should")
 
 
-def report(entries: typing.Sequence[tuple[Study, Size, str, R.Run]], root: pathlib.Path, docs: pathlib.Path,
+def report(entries: typing.Sequence[tuple[Study, Size, str, Run]], root: pathlib.Path, docs: pathlib.Path,
            ranks: int) -> tuple[list[str], bool]:
     """The page, and whether every run that exists ended as it should."""
     lines = ["# Mesh refinement study", "",
@@ -161,12 +167,12 @@ def report(entries: typing.Sequence[tuple[Study, Size, str, R.Run]], root: pathl
              "stop (never converged and overlapping).", ""]
     fine = True
     for study in STUDIES:
-        mine = [(size, method, R.read_summary(root / run.out)) for s, size, method, run in entries if s is study]
+        mine = [(size, method, read_summary(root / run.out)) for s, size, method, run in entries if s is study]
         if not mine:
             continue
         fine &= all(expected(size, summary) is not False for size, _, summary in mine)
-        lines += [f"## {study.title}", "", *R.table(HEADER, rows(study, mine)), ""]
-    lines += [f"Runs on {ranks} MPI rank(s). {R.machine()}", ""]
+        lines += [f"## {study.title}", "", *markdown.table(HEADER, rows(study, mine)), ""]
+    lines += [f"Runs on {ranks} MPI rank(s). {machine()}", ""]
     (docs / "refinement.md").write_text("\n".join(lines))
     return lines, fine
 
@@ -188,23 +194,23 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     args = make_parser().parse_args(argv)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     root = args.out / ("refinement-quick" if args.quick else "refinement")
-    docs = args.docs or (root / "docs" if args.quick else R.REPO / "docs")
+    docs = args.docs or (root / "docs" if args.quick else REPO / "docs")
     entries = plan(args.quick, args.np)
     try:
-        selected = R.select([run for *_, run in entries], args.only)
+        selected = select([run for *_, run in entries], args.only)
     except ValueError as err:
         raise SystemExit(str(err)) from None
     if args.list:
-        R.print_plan(selected, root, args.retry_failed)
+        print_plan(selected, root, args.retry_failed)
         return 0
-    completed, codes = (True, {}) if args.report_only else R.execute(selected, root, args.retry_failed)
+    completed, codes = (True, {}) if args.report_only else execute(selected, root, args.retry_failed)
     docs.mkdir(parents=True, exist_ok=True)
     _, fine = report(entries, root, docs, args.np)
     print(f"wrote {docs / 'refinement.md'}", flush=True)
     if not completed:
         return 130
     made = {run.name for run in selected}
-    ran = [R.read_summary(root / run.out) for *_, run in entries if run.name in made]
+    ran = [read_summary(root / run.out) for *_, run in entries if run.name in made]
     return 0 if fine and all(s is not None for s in ran) else 1
 
 

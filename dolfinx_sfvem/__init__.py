@@ -18,14 +18,14 @@ P2Discretization
 linear_elastic_stiffness
     The plane-strain linear-elastic SFVEM stiffness of one polygon.
 meshes
-    gmsh generators of the paper's geometries.
+    The paper's geometries (benchmarks.py) and the mesh-making tools (meshing/) in one namespace.
 """
 from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from . import meshes
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
 from .fem import P2Discretization
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .problem import ContactProblem
 from .solver import SolveFailed, set_petsc_options
 from .space import VEMSpace

@@ -7,7 +7,7 @@ basis functions are (Eq. 43 and Eq. 45)
     d2phi[j, k, a] = ∂_k m(x_q) · Pi_m[j, :, a]          (∂/∂X_k of the projected ∂φ_a/∂X_j)
 
 so that F = I + Σ_a u_a ⊗ dphi[:, a] and G_ijk = Σ_a u_ia d2phi[j, k, a] (not symmetrised
-in j, k). The compiled pointwise energy kernels (``kernels.py``) return P, T and D, A, B
+in j, k). The compiled pointwise energy kernels (``compiled_energy.py``) return P, T and D, A, B
 (Eqs. 30-32); here they are contracted with the B1 = dphi and B2 = d2phi operators
 (Eqs. 49-51). Instead of the paper's matrix forms (Eqs. 53-54, C.1-C.3) the operators are
 kept per displacement component: with Φ = [dphi; d2phi] (6 × nd) and, for the component

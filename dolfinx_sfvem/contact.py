@@ -38,7 +38,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 from mpi4py import MPI
 
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 
 #: default overlap tolerance, as a fraction of the length of the boundary edge at the node
 OVERLAP_TOLERANCE = 0.02

@@ -5,7 +5,7 @@ material gradient ``G`` (2, 2, 2), ``G_ijk = dF_ij/dX_k = d^2 u_i / dX_j dX_k``
 (not symmetrised in j, k), and of named scalar parameters. The same
 :meth:`Energy.psi` serves
 
-- the pointwise kernels of the SFVEM (:mod:`dolfinx_sfvem.kernels`), where ``F``
+- the pointwise kernels of the SFVEM (:mod:`dolfinx_sfvem.compiled_energy`), where ``F``
   and ``G`` are ``ufl.variable`` s of constants, and
 - the P2 FEM reference, where ``F = ufl.variable(I + grad(u))`` and
   ``G = grad(grad(u))``.

@@ -48,7 +48,7 @@ import dolfinx.fem.petsc
 
 from . import _compat, post
 from .energy import Energy
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .injectivity import folded_elements, gather_count
 from .remesh import matched_triangulation, sfvem_unknowns, triangulate
 from .vem import AssemblyInfo, check_materials

@@ -7,7 +7,7 @@ rejects both. The launcher is the ``mpiexec`` beside the interpreter (a venv or 
 environment that ships its MPI) if there is one, else ``mpiexec`` or ``mpirun`` on ``PATH``; its
 kind is read from its ``--version`` output.
 
-The Makefile, ``python -m dolfinx_sfvem.compare``, ``bench/run.py`` and ``demos/results.py``
+The Makefile, ``demos/compare.py``, ``bench/run.py`` and ``demos/results.py``
 all take the command from here. As a script (standard library only, nothing is imported from
 the package)::
 

@@ -3,7 +3,7 @@
 Edge i runs from vertex i to vertex i + 1 (mod N). Every routine that decides
 "touching", "on", "inside" or "degenerate" takes an absolute length tolerance
 ``tol``: two geometric objects closer than ``tol`` touch, a triangle whose
-smallest height is at most ``tol`` is degenerate. :class:`~dolfinx_sfvem.mesh.PolygonMesh`
+smallest height is at most ``tol`` is degenerate. :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh`
 passes ``RTOL`` times the diagonal of the mesh's bounding box; the Python
 wrappers here default to ``RTOL`` times the polygon's diameter.
 
@@ -175,7 +175,7 @@ def _default_tol(xy: npt.NDArray[np.float64], tol: float | None) -> float:
 @numba.njit(cache=True)
 def _sees_all_edges(xy: npt.NDArray[np.float64], c: npt.NDArray, tol: float) -> bool:
     """Whether ``c`` lies farther than ``tol`` to the left of every edge line, i.e.
-    strictly inside the kernel, so that the fan from ``c`` is a valid triangulation."""
+    strictly inside the visibility region, so that the fan from ``c`` is a valid triangulation."""
     n = xy.shape[0]
     for i in range(n):
         if not _line_distance(c, xy[i], xy[(i + 1) % n]) > tol:  # also rejects NaN (zero-length edge)
@@ -184,8 +184,8 @@ def _sees_all_edges(xy: npt.NDArray[np.float64], c: npt.NDArray, tol: float) -> 
 
 
 @numba.njit(cache=True)
-def kernel(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """The kernel (set of points seeing the whole polygon) of the CCW loop ``xy`` (N, 2).
+def visibility_region(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The visibility region (set of points seeing the whole polygon) of the CCW loop ``xy`` (N, 2).
 
     Intersection of the left half-planes of all edges, by clipping the bounding
     box (Sutherland-Hodgman). Returns a convex CCW loop (K, 2), K = 0 if empty.
@@ -282,7 +282,7 @@ def ear_clipping(xy: npt.NDArray[np.float64], tol: float):
 
 @numba.njit(cache=True)
 def sub_triangulation(xy: npt.NDArray[np.float64], tol: float):
-    """Sub-triangulation of the simple CCW polygon ``xy`` (N, 2) (compiled core of :func:`triangulate`).
+    """Sub-triangulation of the simple CCW polygon ``xy`` (N, 2) (compiled core of :func:`sub_triangulate`).
 
     Returns
     -------
@@ -299,9 +299,9 @@ def sub_triangulation(xy: npt.NDArray[np.float64], tol: float):
     c = centroid(xy)
     fan = _sees_all_edges(xy, c, tol)
     if not fan:
-        ker = kernel(xy)
-        if ker.shape[0] >= 3:
-            c = centroid(ker)
+        region = visibility_region(xy)
+        if region.shape[0] >= 3:
+            c = centroid(region)
             fan = _sees_all_edges(xy, c, tol)
     if fan:
         tri = np.empty((n, 3), dtype=np.int64)
@@ -321,12 +321,12 @@ def sub_triangulation(xy: npt.NDArray[np.float64], tol: float):
     return EARS, c, tri, diag[best, 0], diag[best, 1]
 
 
-def triangulate(xy: npt.ArrayLike, tol: float | None = None
-                ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+def sub_triangulate(xy: npt.ArrayLike, tol: float | None = None
+                    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """Sub-triangulate a simple counter-clockwise polygon.
 
-    A fan from the centroid if it lies strictly inside the kernel (farther than
-    ``tol`` from every edge line), else a fan from the kernel's centroid if that
+    A fan from the centroid if it lies strictly inside the visibility region (farther than
+    ``tol`` from every edge line), else a fan from the visibility region's centroid if that
     does, else ear clipping (best-shaped ear first). Every polygon edge (i, i+1)
     is an edge of exactly one sub-triangle; all sub-triangles are CCW with smallest
     height > ``tol``.

@@ -28,14 +28,11 @@ from petsc4py import PETSc
 from . import _compat, post
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
+from .run_summary import RUNNING, STOPPED_BY_SIGNAL
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 CHECKPOINT = "checkpoint.npz"
-#: summary.json message of a run between its steps (what a killed run leaves behind)
-RUNNING = "running"
-#: summary.json message of a run stopped by SIGINT/SIGTERM (followed by the signal number)
-STOPPED_BY_SIGNAL = "stopped by signal"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -577,12 +574,6 @@ def _differences(saved: typing.Mapping[str, typing.Any], now: typing.Mapping[str
     """``"name: saved A, now B"`` for every entry that differs."""
     return [f"{k}: saved {saved.get(k, 'nothing')!r}, now {now.get(k, 'nothing')!r}"
             for k in sorted(set(saved) | set(now)) if saved.get(k) != now.get(k)]
-
-
-def interrupted(summary: typing.Mapping[str, typing.Any]) -> bool:
-    """Whether a summary.json belongs to a run that was killed between steps or stopped by a
-    signal, i.e. one that ``solve(..., resume=True)`` continues."""
-    return summary["message"] == RUNNING or summary["message"].startswith(STOPPED_BY_SIGNAL)
 
 
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:

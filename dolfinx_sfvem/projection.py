@@ -34,7 +34,7 @@ from .monomials import (evaluate_monomials, exponents, gauss_legendre, monomial_
 #: Relative tolerance on singular values (sigma <= RANK_TOL * sigma_max counts as zero) of the
 #: projected-gradient operators in the L^2(E)-orthonormal polynomial basis, applied as
 #: RANK_TOL^2 to the eigenvalues of their Gram matrices. Measured on the test polygons for
-#: l = 2..10: exact kernel modes at lambda / lambda_max <= 1e-15 (sigma <= 3e-8), the smallest
+#: l = 2..10: exact null-space modes at lambda / lambda_max <= 1e-15 (sigma <= 3e-8), the smallest
 #: genuine ones at lambda / lambda_max >= 7e-6 (sigma >= 2.6e-3); RANK_TOL^2 = 9e-12 lies
 #: between with more than three orders of magnitude on both sides. Genuinely weak modes below
 #: RANK_TOL do occur: an edge shorter than about 1e-5 h_E, or collinear vertices a few per cent
@@ -45,7 +45,7 @@ RANK_TOL = 3e-6
 #: Smallest admissible relative Cholesky pivot of the monomial mass matrix, d_j / M_jj (the
 #: squared sine of the angle between m_j and the span of the monomials before it). Honest
 #: polygons stay above 1e-7 up to l = 10; below 1e-12 the orthonormalised moments lose more than
-#: 6 digits, so kernel modes could no longer be told from RANK_TOL (thin, rotated slivers).
+#: 6 digits, so null-space modes could no longer be told from RANK_TOL (thin, rotated slivers).
 MASS_PIVOT_TOL = 1e-12
 
 # status of a polygon after the l-selection pass
@@ -396,8 +396,8 @@ def count_zero_eigenvalues(A: np.ndarray, tol: float) -> int:
 
 
 @numba.njit(cache=True)
-def kernel_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
-    """Kernel dimensions of the scalar projected gradient and of the projected small strain.
+def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
+    """Null-space dimensions of the scalar projected gradient and of the projected small strain.
 
     In the orthonormal basis of :func:`orthonormal_moments`,
     int_E |Pi grad v|^2 = v~^T (Q0^T Q0 + Q1^T Q1) v~ and
@@ -416,9 +416,9 @@ def kernel_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
 
     Returns
     -------
-    gradient_kernel : int
+    gradient_nullity : int
         dim ker(v~ -> Pi^0_l grad v) on the nd scalar DOFs; 1 (the constants) is right.
-    strain_kernel : int
+    strain_nullity : int
         dim ker(u~ -> sym Pi^0_l grad u) on the 2 nd vector DOFs (u_x DOFs then u_y DOFs);
         3 (the rigid motions) is right. These are the zero eigenvalues of the linear-elastic
         element stiffness (docs/method.md §3 table).
@@ -441,14 +441,14 @@ def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, 
     """Smallest sufficient l in [l_from, l_to] (docs/method.md §3), with its factors L and Q.
 
     l is sufficient when the projected small strain u~ -> sym Pi^0_l grad u has exactly the
-    3 rigid motions in its kernel *and* the projected gradient v~ -> Pi^0_l grad v only the
+    3 rigid motions in its null space *and* the projected gradient v~ -> Pi^0_l grad v only the
     constants (rank 2N on the scalar DOFs). The strain criterion is the strict one and the
-    one that matters: a non-constant scalar kernel mode v gives the non-rigid, strain-free
+    one that matters: a non-constant scalar null-space mode v gives the non-rigid, strain-free
     field (v, 0), so strain-sufficient implies gradient-sufficient, but not conversely (the
-    U-shaped octagon of the tests at l = 3: gradient kernel 1, strain kernel 5). docs/method.md's
-    table counts zero eigenvalues of the linear-elastic stiffness, i.e. the strain kernel.
+    U-shaped octagon of the tests at l = 3: gradient nullity 1, strain nullity 5). docs/method.md's
+    table counts zero eigenvalues of the linear-elastic stiffness, i.e. the strain null space.
     Checking both costs little and guards the implication against tolerance artefacts.
-    The kernel shrinks as l grows (P_l is contained in P_{l+1}), so the first sufficient l is
+    The null space shrinks as l grows (P_l is contained in P_{l+1}), so the first sufficient l is
     the smallest. An l with 3 nl < 2(2N+1) - 3 cannot be sufficient (too few strain
     components) and is skipped without computing, unless it is l_to.
 
@@ -469,8 +469,8 @@ def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, 
     -------
     l : int
         The first sufficient l; else l_to, or the l whose mass matrix is singular.
-    gradient_kernel, strain_kernel : int
-        Kernel dimensions at l (:func:`kernel_dimensions`); both -1 if the P_l mass matrix
+    gradient_nullity, strain_nullity : int
+        Null-space dimensions at l (:func:`null_space_dimensions`); both -1 if the P_l mass matrix
         is numerically singular (:func:`cholesky`).
     L : (nl, nl) float64
         Cholesky factor of the P_l mass matrix.
@@ -488,23 +488,23 @@ def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, 
         if not mass_ok:
             return l, -1, -1, L, R
         Q = orthonormal_moments(L, R)
-        gradient_kernel, strain_kernel = kernel_dimensions(Q, tol)
-        if (gradient_kernel == 1 and strain_kernel == 3) or l == l_to:
-            return l, gradient_kernel, strain_kernel, L, Q
+        gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
+        if (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
+            return l, gradient_nullity, strain_nullity, L, Q
         l += 1
 
 
 # --------------------------------------------------------------------------- bulk build
 @numba.njit(cache=True)
 def _build_all(points, offsets, vertices, polygons, l_from, l_to, tol, Pi_nabla_offsets):
-    """One loop over the selected polygons: status, l, kernels, geometry, Pi_nabla, Pi_m.
+    """One loop over the selected polygons: status, l, nullities, geometry, Pi_nabla, Pi_m.
 
     A polygon with status != _OK gets an empty Pi_m block (the caller raises).
     """
     n = polygons.size
     status = np.zeros(n, dtype=np.int32)
     l = np.zeros(n, dtype=np.int32)
-    kernels = np.zeros((n, 2), dtype=np.int64)
+    nullities = np.zeros((n, 2), dtype=np.int64)
     centroid = np.zeros((n, 2))
     diameter = np.zeros(n)
     area = np.zeros(n)
@@ -523,10 +523,10 @@ def _build_all(points, offsets, vertices, polygons, l_from, l_to, tol, Pi_nabla_
         centroid[j] = x_E
         Pi_nabla = pi_nabla_2(xy, x_E, diameter[j], area[j])
         Pi_nabla_flat[Pi_nabla_offsets[j]:Pi_nabla_offsets[j + 1]] = Pi_nabla.ravel()
-        l[j], kernels[j, 0], kernels[j, 1], L, Q = select_l(xy, x_E, diameter[j], Pi_nabla, l_from[j], l_to[j], tol)
-        if kernels[j, 0] == -1:
+        l[j], nullities[j, 0], nullities[j, 1], L, Q = select_l(xy, x_E, diameter[j], Pi_nabla, l_from[j], l_to[j], tol)
+        if nullities[j, 0] == -1:
             status[j] = _SINGULAR_MASS
-        elif kernels[j, 0] != 1 or kernels[j, 1] != 3:
+        elif nullities[j, 0] != 1 or nullities[j, 1] != 3:
             status[j] = _RANK_DEFICIENT
         if status[j] != _OK:
             continue
@@ -538,12 +538,12 @@ def _build_all(points, offsets, vertices, polygons, l_from, l_to, tol, Pi_nabla_
             Pi_m_flat = grown
         Pi_m_flat[Pi_m_offsets[j]:end] = Pi_m
         Pi_m_offsets[j + 1] = end
-    return status, l, kernels, centroid, diameter, area, Pi_nabla_flat, Pi_m_offsets, Pi_m_flat[:Pi_m_offsets[-1]]
+    return status, l, nullities, centroid, diameter, area, Pi_nabla_flat, Pi_m_offsets, Pi_m_flat[:Pi_m_offsets[-1]]
 
 
 @dataclass(frozen=True)
 class Projections:
-    """Pi^nabla_2 and Pi^0_l nabla of a set of polygons, flattened for numba kernels.
+    """Pi^nabla_2 and Pi^0_l nabla of a set of polygons, flattened for the compiled loops.
 
     Polygon j (0..n-1, in the order they were built) has nd_j = 2 N_j + 1 scalar DOFs
     (module docstring) and nl_j = (l_j + 1)(l_j + 2)/2 monomials.
@@ -642,26 +642,26 @@ def _l_range(l: int | npt.ArrayLike | None, n: int, l_min: int, l_max: int) -> t
     return l_given, l_given
 
 
-def _rank_error(e: int, xy: np.ndarray, status: int, l: int, kernels: np.ndarray, l_given: bool,
+def _rank_error(e: int, xy: np.ndarray, status: int, l: int, nullities: np.ndarray, l_given: bool,
                 l_max: int) -> ValueError:
     """The error for polygon e (mesh index) whose l is not sufficient."""
     if status == _SINGULAR_MASS:
         return ValueError(f"polygon {e}: the P_{l} monomial mass matrix is numerically singular (relative "
                           f"Cholesky pivot < {MASS_PIVOT_TOL:g}); the polygon is too thin or degenerate for "
                           f"scaled monomials of degree {l}")
-    kernel = (f"{kernels[1]} zero-strain modes where the 3 rigid motions are expected, gradient kernel "
-              f"{kernels[0]} where 1 is expected; relative SVD tolerance {RANK_TOL:g}")
+    deficiency = (f"{nullities[1]} zero-strain modes where the 3 rigid motions are expected, gradient null space "
+                  f"{nullities[0]} where 1 is expected; relative SVD tolerance {RANK_TOL:g}")
     if not l_given:
-        return ValueError(f"polygon {e}: no l <= l_max={l_max} is sufficient (at l={l}: {kernel}); "
+        return ValueError(f"polygon {e}: no l <= l_max={l_max} is sufficient (at l={l}: {deficiency}); "
                           "degenerate polygon or l_max too small")
     smallest = f"no l <= l_max={l_max} is sufficient"
     if l < l_max:
         area, x_E, h_E = polygon_geometry(xy)
-        l_ok, gradient_kernel, strain_kernel, _, _ = select_l(xy, x_E, h_E, pi_nabla_2(xy, x_E, h_E, area),
+        l_ok, gradient_nullity, strain_nullity, _, _ = select_l(xy, x_E, h_E, pi_nabla_2(xy, x_E, h_E, area),
                                                               l + 1, l_max, RANK_TOL)
-        if gradient_kernel == 1 and strain_kernel == 3:
+        if gradient_nullity == 1 and strain_nullity == 3:
             smallest = f"the smallest sufficient l is {l_ok}"
-    return ValueError(f"polygon {e}: l={l} is rank-deficient ({kernel}); {smallest}")
+    return ValueError(f"polygon {e}: l={l} is rank-deficient ({deficiency}); {smallest}")
 
 
 def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: npt.ArrayLike,
@@ -713,7 +713,7 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
     nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
     Pi_nabla_offsets = np.concatenate(([0], np.cumsum(6 * nd))).astype(np.int64)
 
-    status, l_chosen, kernels, centroid, diameter, area, Pi_nabla, Pi_m_offsets, Pi_m = _build_all(
+    status, l_chosen, nullities, centroid, diameter, area, Pi_nabla, Pi_m_offsets, Pi_m = _build_all(
         points, offsets, vertices, polygons, l_from, l_to, RANK_TOL, Pi_nabla_offsets)
     failed = np.flatnonzero(status != _OK)
     if failed.size:
@@ -721,5 +721,5 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
         e = int(polygons[j])
         xy = points[vertices[offsets[e]:offsets[e + 1]]]
         validate_polygon(xy, e)
-        raise _rank_error(e, xy, int(status[j]), int(l_chosen[j]), kernels[j], l is not None, l_max)
+        raise _rank_error(e, xy, int(status[j]), int(l_chosen[j]), nullities[j], l is not None, l_max)
     return Projections(l_chosen, centroid, diameter, area, Pi_nabla_offsets, Pi_nabla, Pi_m_offsets, Pi_m)

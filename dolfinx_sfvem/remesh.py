@@ -1,7 +1,7 @@
 """Triangle meshes of the geometry of a polygon mesh, for the P2 FEM reference.
 
 :func:`triangulate` extracts every region's boundary loops (outer loops and holes) from a
-:class:`~dolfinx_sfvem.mesh.PolygonMesh` and meshes the regions again with gmsh at a
+:class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` and meshes the regions again with gmsh at a
 requested size ``h``: every polygon-mesh vertex on an outer boundary or a region
 interface becomes a gmsh point, every boundary/interface edge a gmsh line shared by the
 regions on both sides. The triangle mesh therefore has the same regions, follows the
@@ -9,7 +9,7 @@ interfaces exactly and has a vertex at every named point of a benchmark (load po
 gap points), which are polygon vertices on boundaries.
 
 Consequence: boundary and interface segments are never longer than the polygon mesh's
-edges there (for the dual meshes of :mod:`~dolfinx_sfvem.meshes` about half the
+edges there (for the dual meshes of :mod:`~dolfinx_sfvem.meshing.dual` about half the
 polygon size); only the interior follows ``h``.
 
 :func:`matched_triangulation` picks ``h`` so that the P2 unknowns match the SFVEM
@@ -21,8 +21,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .mesh import PolygonMesh
-from .meshes import gmsh_session, model_cells
+from .polygon_mesh import PolygonMesh
+from .meshing.gmsh_io import gmsh_session, model_cells
 from .polygon import point_location, signed_area
 
 

@@ -26,7 +26,7 @@ import dolfinx
 import dolfinx.fem
 
 from . import _compat
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .projection import Projections, build_projections
 from .quadrature import compressed_polygon_quadrature, polygon_quadrature

@@ -1,7 +1,7 @@
 """SFVEM discretization of a region-wise energy: residual and tangent into PETSc objects.
 
 This is the glue between the space (``space.py``), the compiled pointwise energy
-kernels (``kernels.py``) and the compiled polygon loops (``assemble.py``). The PETSc
+kernels (``compiled_energy.py``) and the compiled polygon loops (``assemble.py``). The PETSc
 matrix is preallocated once in COO format (one dense block per polygon plus the
 diagonal) and refilled in place at every Newton iteration; the residual is assembled
 into the ghosted local form of a PETSc vector and accumulated over ranks.
@@ -19,8 +19,8 @@ from . import _compat, post
 from .assemble import basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
-from .kernels import EnergyKernels, compile_kernels
-from .mesh import PolygonMesh
+from .compiled_energy import EnergyKernels, compile_kernels
+from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .space import VERTEX, VEMSpace
 

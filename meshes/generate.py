@@ -14,7 +14,7 @@ and mesh options, ``gmsh <gmsh>.geo -2`` meshes it again) and ``<gmsh>.msh`` (th
 2D physical groups numbered by region tag). The summary (printed, and ``summary.md``) gives per
 mesh the polygons by region and by vertex count, the hanging nodes and the projection order l
 that the rank check chooses per polygon (docs/method.md §3: the smallest l >= 3 for which the
-projected small-strain operator has exactly the 3 rigid-body modes in its kernel; a polygon
+projected small-strain operator has exactly the 3 rigid-body modes in its null space; a polygon
 without one is an error, and the script exits with 1).
 
 ``--check`` exits with 1 if a regenerated mesh differs from the one kept here (e.g. after a
@@ -31,37 +31,28 @@ import typing
 
 import numpy as np
 
-from dolfinx_sfvem import meshes, post
-from dolfinx_sfvem.mesh import PolygonMesh
+from dolfinx_sfvem import markdown, meshes, paper, post
+from dolfinx_sfvem.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.projection import build_projections
 
 HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "demos"))
-import box_self_contact  # noqa: E402  (the demos' default sizes and gaps)
-import cbox  # noqa: E402
-import multi_object  # noqa: E402
-import punch  # noqa: E402
-
-
-def _default_h(demo) -> float:
-    """The demo's default ``--h``."""
-    return demo.make_parser().get_default("h")
-
+#: the demos' default mesh sizes
+H = paper.DEFAULT_H
 
 #: name -> (gmsh file stem or None, generator taking that stem as ``keep_gmsh``, which demo run uses it)
 MESHES: dict[str, tuple[str | None, collections.abc.Callable[[str | None], meshes.Benchmark], str]] = {
-    "box-mesh1": ("box-solid", lambda keep: meshes.box(1, _default_h(box_self_contact), keep),
+    "box-mesh1": ("box-solid", lambda keep: meshes.box(1, H["box_self_contact"], keep),
                   "box_self_contact.py --mesh 1"),
-    "box-mesh2": (None, lambda keep: meshes.box(2, _default_h(box_self_contact), keep),
+    "box-mesh2": (None, lambda keep: meshes.box(2, H["box_self_contact"], keep),
                   "box_self_contact.py --mesh 2"),
-    "box-mesh3": (None, lambda keep: meshes.box(3, _default_h(box_self_contact), keep),
+    "box-mesh3": (None, lambda keep: meshes.box(3, H["box_self_contact"], keep),
                   "box_self_contact.py --mesh 3"),
-    "cbox-mesh1": ("cbox-solid", lambda keep: meshes.cbox(_default_h(cbox), 1, keep), "cbox.py --mesh 1"),
-    "cbox-mesh2": (None, lambda keep: meshes.cbox(_default_h(cbox), 2, keep), "cbox.py --mesh 2"),
-    "cbox-grid1": (None, lambda keep: meshes.cbox_grid(_default_h(cbox), 1), "cbox.py --method fem --mesh 1"),
-    "cbox-grid2": (None, lambda keep: meshes.cbox_grid(_default_h(cbox), 2), "cbox.py --method fem --mesh 2"),
-    "punch": ("punch", lambda keep: meshes.punch(_default_h(punch), punch.GAP, keep), "punch.py"),
-    "multi_object": ("multi_object", lambda keep: meshes.multi_object(_default_h(multi_object), multi_object.GAP,
+    "cbox-mesh1": ("cbox-solid", lambda keep: meshes.cbox(H["cbox"], 1, keep), "cbox.py --mesh 1"),
+    "cbox-mesh2": (None, lambda keep: meshes.cbox(H["cbox"], 2, keep), "cbox.py --mesh 2"),
+    "cbox-grid1": (None, lambda keep: meshes.cbox_grid(H["cbox"], 1), "cbox.py --method fem --mesh 1"),
+    "cbox-grid2": (None, lambda keep: meshes.cbox_grid(H["cbox"], 2), "cbox.py --method fem --mesh 2"),
+    "punch": ("punch", lambda keep: meshes.punch(H["punch"], paper.PUNCH_GAP, keep), "punch.py"),
+    "multi_object": ("multi_object", lambda keep: meshes.multi_object(H["multi_object"], paper.MULTI_OBJECT_GAP,
                                                                       keep), "multi_object.py"),
 }
 
@@ -96,9 +87,8 @@ def write_summary(rows: typing.Sequence[list[str]], path: pathlib.Path) -> None:
     """summary.md: the table of :func:`summary_row` rows."""
     header = ["mesh", "used by", "polygons (by region tag 1 / 2 / 3)", "polygons by vertex count", "points",
               "T-junctions", "collinear vertices", "projection order l (rank check)", "files"]
-    lines = ["# Demo meshes at their default sizes", "", "Written by `meshes/generate.py` (`make meshes`).", "",
-             "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    lines = ["# Demo meshes at their default sizes", "", "Written by `meshes/generate.py` (`make meshes`).", ""]
+    lines += markdown.table(header, rows)
     lines += ["", "T-junctions: vertices where one polygon has a straight angle and another a corner (where "
                   "meshes of different densities meet); collinear vertices: every vertex straight in some "
                   "polygon (also the straight boundary vertices of dual meshes), see `meshes.describe`."]

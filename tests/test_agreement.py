@@ -7,17 +7,22 @@
   triangles with matched unknowns) are read from ``data/``: gmsh 4.8 made them (written by
   ``data/make_reference.py --meshes``), and other gmsh versions give other meshes.
 - C-box (paper §5.2) at u_y = -0.3 at matched unknowns: the reaction at the load point.
-- The comparison tool (``python -m dolfinx_sfvem.compare``) on a stand-in demo.
+- The comparison tool (``python3 demos/compare.py``) on a stand-in demo.
 """
 import json
 import pathlib
+import sys
 import textwrap
 
 import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import compare, meshes
+from dolfinx_sfvem import meshes
+from dolfinx_sfvem.run_summary import RunSummary
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
+import compare  # noqa: E402
 
 SHEAR, COMPRESSION = 0.2, -0.15
 DATA = pathlib.Path(__file__).resolve().parent / "data"
@@ -162,6 +167,6 @@ def test_compare_tool_tabulates_max_displacement(tmp_path):
     vem = {"dofs": 10, "converged": True, "wall_time_s": 1.0,
            "steps": [{"load": 1.0, "converged": True, "newton_iterations": 2, "max_displacement": 0.5}]}
     fem = {**vem, "steps": [{**vem["steps"][0], "max_displacement": 0.4}]}
-    rows = {r[0]: r for r in compare.compare(vem, fem)}
+    rows = {r[0]: r for r in compare.compare(RunSummary.from_dict(vem), RunSummary.from_dict(fem))}
     assert rows["max |u|"][1:3] == (0.5, 0.4)
     assert rows["max |u|"][3] == pytest.approx(-0.2)

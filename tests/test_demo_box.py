@@ -11,6 +11,8 @@ import sys
 
 import pytest
 
+from dolfinx_sfvem.run_summary import read_summary
+
 DEMO = pathlib.Path(__file__).resolve().parents[1] / "demos" / "box_self_contact.py"
 
 #: a short load path before contact on the coarsest mesh the walls allow (h = wall thickness)
@@ -23,51 +25,47 @@ def run_demo(*args: str, out: pathlib.Path) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
 
 
-def converged_steps(summary: dict) -> list[dict]:
-    return [s for s in summary["steps"] if s["converged"]]
-
-
 def test_box_single_run(tmp_path):
     proc = run_demo(*SMALL, "--steps", "4", out=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "converged: yes" in proc.stdout.splitlines()[-1]
 
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["converged"] and summary["dofs"] > 0
+    summary = read_summary(tmp_path)
+    assert summary.converged and summary.dofs > 0
     assert {"uy": -0.2, "mesh": 1, "h": 0.1, "steps": 4, "gamma": 1e-6, "alpha_r": 0.1,
-            "regularization": "huhu_lulu", "beta": 5.0}.items() <= summary["parameters"].items()
-    medium = summary["parameters"]["materials"]["2"]
+            "regularization": "huhu_lulu", "beta": 5.0}.items() <= summary.parameters.items()
+    medium = summary.parameters["materials"]["2"]
     assert medium["mu"] == 10 and medium["beta"] == 5.0 and medium["K"] == 0
-    assert summary["parameters"]["materials"]["1"]["K"] == 20
+    assert summary.parameters["materials"]["1"]["K"] == 20
 
-    steps = converged_steps(summary)
-    assert [s["load"] for s in steps] == pytest.approx([0.25, 0.5, 0.75, 1.0])
+    steps = summary.converged_steps
+    assert [s.load for s in steps] == pytest.approx([0.25, 0.5, 0.75, 1.0])
     gaps = []
     for s in steps:
-        extra = s["extra"]
+        extra = s.extra
         assert set(extra) == {"gap", "top_uy", "bottom_uy"}
         # the gap is the initial 0.3 minus the relative displacement of the two inner surface points
         assert extra["gap"] == pytest.approx(G0 + extra["top_uy"] - extra["bottom_uy"], abs=1e-12)
         # before contact the inner surface of the top follows the load point (the wall is stiff)
-        prescribed = -0.2 * s["load"]
+        prescribed = -0.2 * s.load
         assert extra["top_uy"] == pytest.approx(prescribed, rel=0.05)
         assert 0 < G0 - extra["gap"] < 1.05 * abs(prescribed)
-        assert set(s["reaction"]) == {"fixed", "roller", "load"}
+        assert set(s.reaction) == {"fixed", "roller", "load"}
         # no body force: the reactions balance
-        assert sum(r[1] for r in s["reaction"].values()) == pytest.approx(0, abs=1e-8)
-        assert sum(r[0] for r in s["reaction"].values()) == pytest.approx(0, abs=1e-8)
-        assert s["reaction"]["load"][1] < 0 < s["reaction"]["roller"][1]
+        assert sum(r[1] for r in s.reaction.values()) == pytest.approx(0, abs=1e-8)
+        assert sum(r[0] for r in s.reaction.values()) == pytest.approx(0, abs=1e-8)
+        assert s.reaction["load"][1] < 0 < s.reaction["roller"][1]
         gaps.append(extra["gap"])
     assert gaps[0] == pytest.approx(G0 - 0.05, abs=0.01)              # close to 0.3 - 0.05 at the first step
     assert all(b < a for a, b in zip([G0] + gaps, gaps))                # closes monotonically
-    forces = [-s["reaction"]["load"][1] for s in steps]
+    forces = [-s.reaction["load"][1] for s in steps]
     assert all(b > a for a, b in zip(forces, forces[1:]))
 
     with open(tmp_path / "load_path.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 4
     assert [float(r["gap"]) for r in rows] == pytest.approx(gaps, abs=1e-12)
-    assert float(rows[-1]["load_Ry"]) == pytest.approx(steps[-1]["reaction"]["load"][1])
+    assert float(rows[-1]["load_Ry"]) == pytest.approx(steps[-1].reaction["load"][1])
     for name in ("gap.png", "reaction.png", "deformed.png", "uy.png", "displacement.xdmf"):
         assert (tmp_path / name).stat().st_size > 0, name
 
@@ -80,10 +78,10 @@ def test_box_table2_reduced_and_restart(tmp_path):
 
     runs = {a: tmp_path / "huhu_lulu-beta5" / f"alpha_r{a}-gamma1e-04-mesh1" for a in ("10", "1")}
     for d in runs.values():
-        summary = json.loads((d / "summary.json").read_text())
-        assert summary["converged"] and len(converged_steps(summary)) == 2
-        assert summary["parameters"]["gamma"] == 1e-4 and summary["parameters"]["beta"] == 5.0
-        assert "table2" not in summary["parameters"]
+        summary = read_summary(d)
+        assert summary.converged and len(summary.converged_steps) == 2
+        assert summary.parameters["gamma"] == 1e-4 and summary.parameters["beta"] == 5.0
+        assert "table2" not in summary.parameters
         assert (d / "gap.png").exists()
 
     table = (tmp_path / "table2.md").read_text()
@@ -97,8 +95,8 @@ def test_box_table2_reduced_and_restart(tmp_path):
     assert [(r["alpha_r"], r["gamma"], r["mesh"]) for r in data] == [(10.0, 1e-4, 1), (1.0, 1e-4, 1)]
     assert [r["paper"] for r in data] == [8.6882e-3, 7.9000e-3]
     for r, d in zip(data, runs.values()):
-        last = converged_steps(json.loads((d / "summary.json").read_text()))[-1]
-        assert r["converged"] and r["gap"] == last["extra"]["gap"]
+        last = read_summary(d).final_step
+        assert r["converged"] and r["gap"] == last.extra["gap"]
         assert r["ratio"] == pytest.approx(r["gap"] / r["paper"])
         assert f"{r['gap']:.4e}" in table
 

@@ -13,6 +13,8 @@ import sys
 import numpy as np
 import pytest
 
+from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 OUTPUTS = ("summary.json", "load_path.csv", "displacement.xdmf", "displacement.h5",
            "deformed.png", "uy.png", "reaction.png")
@@ -35,22 +37,23 @@ def load_demo(name: str):
 
 
 def check_run(proc: subprocess.CompletedProcess, out: pathlib.Path, n_steps: int, reactions: set[str],
-              extra: tuple[str, ...]) -> tuple[dict, list[dict], list[dict]]:
+              extra: tuple[str, ...]) -> tuple[RunSummary, list[Step], list[dict]]:
     """Common checks of a completed reduced run; returns summary, converged steps, CSV rows."""
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
     assert "converged: yes" in proc.stdout.splitlines()[-1]
-    summary = json.loads((out / "summary.json").read_text())
+    content = json.loads((out / "summary.json").read_text())
     for key in ("method", "dofs", "wall_time_s", "parameters", "steps", "converged", "message"):
-        assert key in summary, key
-    assert summary["converged"] and summary["dofs"] > 0 and summary["message"] == ""
-    steps = [s for s in summary["steps"] if s["converged"]]
+        assert key in content, key
+    summary = read_summary(out)
+    assert summary.converged and summary.dofs > 0 and summary.message == ""
+    steps = summary.converged_steps
     assert len(steps) == n_steps
-    assert steps[-1]["load"] == pytest.approx(1.0)
+    assert steps[-1].load == pytest.approx(1.0)
     for step in steps:
-        assert set(step["reaction"]) == reactions
-        assert set(extra) <= set(step["extra"])
-        assert len(step["residual_norms"]) == step["newton_iterations"] + 1
+        assert set(step.reaction) == reactions
+        assert set(extra) <= set(step.extra)
+        assert len(step.residual_norms) == step.newton_iterations + 1
     with open(out / "load_path.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == n_steps
@@ -64,16 +67,16 @@ def test_punch_soft_reduced(tmp_path):
     proc = run_demo("punch", "--h", "0.25", "--steps", "3", "--uy", str(uy), "--quiet", out=tmp_path)
     summary, steps, rows = check_run(proc, tmp_path, 3, {"fixed", "symmetry", "load"},
                                      ("punch_uy", "tip_uy", "block_uy", "gap"))
-    params = summary["parameters"]
+    params = summary.parameters
     assert {"punch": "soft", "uy": uy, "h": 0.25, "gamma": 1e-4, "alpha_r": 1.0,
             "regularization": "rotation", "steps": 3}.items() <= params.items()
     assert params["materials"]["3"]["K"] == pytest.approx(5 / 3)
     # the recorded punch-top displacement is the prescribed one, step by step
-    assert [s["extra"]["punch_uy"] for s in steps] == pytest.approx([uy * s["load"] for s in steps], abs=1e-10)
+    assert [s.extra["punch_uy"] for s in steps] == pytest.approx([uy * s.load for s in steps], abs=1e-10)
     assert float(rows[-1]["punch_uy"]) == pytest.approx(uy, abs=1e-10)
     # before contact the punch moves almost rigidly and the gap closes by |u_y|
-    assert steps[-1]["extra"]["gap"] == pytest.approx(1.0 + uy, abs=1e-3)
-    assert steps[-1]["reaction"]["load"][1] < 0
+    assert steps[-1].extra["gap"] == pytest.approx(1.0 + uy, abs=1e-3)
+    assert steps[-1].reaction["load"][1] < 0
 
 
 def test_multi_object_bc2_reduced(tmp_path):
@@ -83,17 +86,16 @@ def test_multi_object_bc2_reduced(tmp_path):
     extra = tuple(f"{q}{i}_{c}" for i in (1, 4, 7) for q, c in (("disc", "ux"), ("disc", "uy"), ("tip", "uy")))
     summary, steps, rows = check_run(proc, tmp_path, 2, {"left", "right", "discs"}, extra)
     assert (tmp_path / "zoom.png").stat().st_size > 0
-    params = summary["parameters"]
+    params = summary.parameters
     assert {"bc": 2, "uy": uy, "h": 0.1, "gamma": 1e-4, "alpha_r": 10.0, "regularization": "rotation",
             "snes_atol": "1e-8"}.items() <= params.items()
     assert set(params["boundary_conditions"]["discs"]["values"]) == {"1"}          # u_x free
     assert set(params["boundary_conditions"]["right"]["values"]) == {"1"}          # roller
     for i in (1, 4, 7):
-        assert [s["extra"][f"disc{i}_uy"] for s in steps] == pytest.approx([uy * s["load"] for s in steps],
-                                                                           abs=1e-10)
+        assert [s.extra[f"disc{i}_uy"] for s in steps] == pytest.approx([uy * s.load for s in steps], abs=1e-10)
         assert float(rows[-1][f"disc{i}_uy"]) == pytest.approx(uy, abs=1e-10)
-        assert steps[-1]["extra"][f"tip{i}_uy"] == pytest.approx(uy, abs=1e-4)      # hard discs
-    assert steps[-1]["reaction"]["discs"][0] == 0.0                                  # no x constraint
+        assert steps[-1].extra[f"tip{i}_uy"] == pytest.approx(uy, abs=1e-4)        # hard discs
+    assert steps[-1].reaction["discs"][0] == 0.0                                  # no x constraint
 
 
 @pytest.mark.parametrize("name, args, message", [

@@ -11,6 +11,8 @@ import sys
 
 import pytest
 
+from dolfinx_sfvem.run_summary import read_summary
+
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
 #: a short C-box load path: before contact, coarse mesh, a few seconds
@@ -23,10 +25,6 @@ def run_demo(name: str, *args: str, out: pathlib.Path | None = None) -> subproce
     return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
 
 
-def converged_steps(summary: dict) -> list[dict]:
-    return [s for s in summary["steps"] if s["converged"]]
-
-
 def csv_rows(path: pathlib.Path) -> list[dict]:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
@@ -37,25 +35,27 @@ def test_cbox_outputs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "converged: yes" in proc.stdout.splitlines()[-1]
 
-    summary = json.loads((tmp_path / "summary.json").read_text())
+    content = json.loads((tmp_path / "summary.json").read_text())
     for key in ("method", "dofs", "wall_time_s", "parameters", "steps", "converged"):
-        assert key in summary, key
-    assert summary["method"] == "vem" and summary["converged"] and summary["dofs"] > 0
-    params = summary["parameters"]
+        assert key in content, key
+    for step in content["steps"]:
+        for key in ("load", "newton_iterations", "residual_norms", "reaction", "converged"):
+            assert key in step, key
+    summary = read_summary(tmp_path)
+    assert summary.method == "vem" and summary.converged and summary.dofs > 0
+    params = summary.parameters
     assert {"uy": -0.1, "mesh": 1, "h": 0.1, "gamma": 1e-5, "alpha_r": 1.0, "regularization": "rotation",
             "beta": None}.items() <= params.items()
 
-    steps = converged_steps(summary)
+    steps = summary.converged_steps
     assert len(steps) == 3
     for step in steps:
-        for key in ("load", "newton_iterations", "residual_norms", "reaction", "converged"):
-            assert key in step, key
-        assert len(step["residual_norms"]) == step["newton_iterations"] + 1
-        assert set(step["reaction"]) == {"fixed", "load"}
-    assert steps[-1]["load"] == pytest.approx(1.0)
-    assert steps[-1]["extra"]["tip_uy"] == pytest.approx(-0.1, abs=1e-9)
-    assert [s["extra"]["tip_uy"] for s in steps] == pytest.approx([-0.1 * s["load"] for s in steps], abs=1e-9)
-    assert steps[-1]["reaction"]["load"][1] < 0          # the tip is pulled down
+        assert len(step.residual_norms) == step.newton_iterations + 1
+        assert set(step.reaction) == {"fixed", "load"}
+    assert steps[-1].load == pytest.approx(1.0)
+    assert steps[-1].extra["tip_uy"] == pytest.approx(-0.1, abs=1e-9)
+    assert [s.extra["tip_uy"] for s in steps] == pytest.approx([-0.1 * s.load for s in steps], abs=1e-9)
+    assert steps[-1].reaction["load"][1] < 0          # the tip is pulled down
 
     rows = csv_rows(tmp_path / "load_path.csv")
     assert len(rows) == len(steps)
@@ -92,11 +92,11 @@ def test_petsc_options_reach_snes(tmp_path):
     assert "Traceback" not in proc.stderr
     assert "converged: no" in proc.stdout.splitlines()[-1]
 
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert not summary["converged"] and "failed" in summary["message"]
-    assert summary["parameters"]["petsc_options"] == ["-snes_max_it", "1"]
-    assert summary["steps"] and all(s["newton_iterations"] <= 1 for s in summary["steps"])
-    assert len(csv_rows(tmp_path / "load_path.csv")) == len(converged_steps(summary))
+    summary = read_summary(tmp_path)
+    assert not summary.converged and "failed" in summary.message
+    assert summary.parameters["petsc_options"] == ["-snes_max_it", "1"]
+    assert summary.steps and all(s.newton_iterations <= 1 for s in summary.steps)
+    assert len(csv_rows(tmp_path / "load_path.csv")) == len(summary.converged_steps)
 
 
 @pytest.mark.parametrize("error", ["ValueError", "SolveFailed"])
@@ -116,9 +116,9 @@ def test_expected_errors_become_exit_code_2(capsys, error):
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
     proc = run_demo("cbox", *SMALL, "--method", "fem", "--fem-jump-penalty", "40", out=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["converged"] and summary["method"] == "fem"
-    assert summary["jump_penalty"] == 40.0 and summary["parameters"]["fem_jump_penalty"] == 40.0
+    summary = read_summary(tmp_path)
+    assert summary.converged and summary.method == "fem"
+    assert summary.discretization["jump_penalty"] == 40.0 and summary.parameters["fem_jump_penalty"] == 40.0
 
 
 @pytest.mark.parametrize("cells, cell_type", [(None, "quadrilateral"), ("triangles", "triangle")])
@@ -126,7 +126,7 @@ def test_cbox_fem_cells(tmp_path, cells, cell_type):
     """The C-box FEM is Q2 on cbox_grid by default, P2 on a matched triangulation on request."""
     proc = run_demo("cbox", *SMALL, "--method", "fem", *(["--fem-cells", cells] if cells else []), out=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["converged"] and summary["cell_type"] == cell_type
+    summary = read_summary(tmp_path)
+    assert summary.converged and summary.discretization["cell_type"] == cell_type
     if cells is None:                     # h = 0.1: 11 x 5 rectangles, (2 * 11 + 1) (2 * 5 + 1) nodes
-        assert summary["cells"] == 55 and summary["dofs"] == 2 * 23 * 11
+        assert summary.discretization["cells"] == 55 and summary.dofs == 2 * 23 * 11

@@ -4,7 +4,7 @@ import pytest
 import ufl
 
 from dolfinx_sfvem.energy import REGULARIZATIONS, Hyperelastic, ThirdMedium, UserEnergy
-from dolfinx_sfvem.kernels import compile_kernels, evaluate, tabulate
+from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate, tabulate
 
 STEP = 1e-5  # central differences: truncation ~ STEP^2, round-off ~ 1e-16 / STEP
 RTOL = 1e-6

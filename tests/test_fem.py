@@ -25,7 +25,7 @@ from petsc4py import PETSc
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.energy import REGULARIZATIONS
 from dolfinx_sfvem.fem import P2Discretization
-from dolfinx_sfvem.kernels import compile_kernels, evaluate
+from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
 from dolfinx_sfvem.remesh import p2_unknowns, sfvem_unknowns, triangulate
 from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
 

@@ -9,8 +9,8 @@ from mpi4py import MPI
 import dolfinx.fem
 import ufl
 from dolfinx_sfvem import _compat
-from dolfinx_sfvem.mesh import PolygonMesh
-from dolfinx_sfvem.polygon import RTOL, triangulate
+from dolfinx_sfvem.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.polygon import RTOL, sub_triangulate
 
 
 # --------------------------------------------------------------------------- helpers
@@ -381,7 +381,7 @@ SPIRAL = np.array([(0, 0), (4, 0), (4, 4), (1, 4), (1, 2), (2, 2), (2, 3), (3, 3
 
 
 def test_star_shaped_polygon_fans_from_kernel_centroid():
-    extra, triangles, interior = triangulate(STAR_L)
+    extra, triangles, interior = sub_triangulate(STAR_L)
     np.testing.assert_allclose(extra, [[0.1, 0.1]])  # the centroid (0.55, 0.55) sees only part of it
     assert triangles.shape == (6, 3) and list(interior) == [6, 6]
     assert_valid_triangulation(STAR_L, triangles, interior, extra)
@@ -390,14 +390,14 @@ def test_star_shaped_polygon_fans_from_kernel_centroid():
 def test_hanging_vertices_on_a_nonconvex_star_polygon():
     # the L with extra collinear vertices on its long outer sides and on a reflex side
     xy = np.array([(0, 0), (1, 0), (2, 0), (2, .2), (1, .2), (.2, .2), (.2, 1), (.2, 2), (0, 2), (0, 1)], float)
-    extra, triangles, interior = triangulate(xy)
+    extra, triangles, interior = sub_triangulate(xy)
     assert extra.shape == (1, 2)
     assert_valid_triangulation(xy, triangles, interior, extra)
 
 
 @pytest.mark.parametrize("xy", [COMB, SPIRAL, COMB[::-1] * [-1, 1]], ids=["comb", "spiral", "mirrored-comb"])
 def test_non_star_polygon_is_ear_clipped(xy):
-    extra, triangles, interior = triangulate(xy)
+    extra, triangles, interior = sub_triangulate(xy)
     assert extra.shape == (0, 2) and triangles.shape == (len(xy) - 2, 3)
     assert interior[0] != interior[1]
     assert_valid_triangulation(xy, triangles, interior, extra)
@@ -407,16 +407,16 @@ def test_non_star_polygon_is_ear_clipped(xy):
 def test_convex_polygon_fans_from_centroid():
     angles = np.linspace(0, 2 * np.pi, 9)[:-1]
     xy = np.column_stack([2 + np.cos(angles), 3 + 0.5 * np.sin(angles)])
-    extra, triangles, interior = triangulate(xy)
+    extra, triangles, interior = sub_triangulate(xy)
     np.testing.assert_allclose(extra, [[2.0, 3.0]], atol=1e-14)
     assert_valid_triangulation(xy, triangles, interior, extra)
 
 
 @pytest.mark.parametrize("xy", [[(0, 0), (1, 0), (2, 0)], [(0, 0), (0, 1), (1, 0)], [(0, 0), (1, 0)]],
                          ids=["collinear", "clockwise", "two points"])
-def test_triangulate_rejects_degenerate_input(xy):
+def test_sub_triangulate_rejects_degenerate_input(xy):
     with pytest.raises(ValueError):
-        triangulate(xy)
+        sub_triangulate(xy)
 
 
 def test_mesh_of_nonconvex_polygons():

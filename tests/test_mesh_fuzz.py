@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from matplotlib.path import Path
 
-from dolfinx_sfvem.mesh import PolygonMesh
-from dolfinx_sfvem.polygon import triangulate
+from dolfinx_sfvem.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.polygon import sub_triangulate
 from test_mesh import COMB, SPIRAL, STAR_L, assert_deepest_diagonal, assert_valid_mesh, assert_valid_triangulation, \
     glue, hanging_mesh, square_grid
 
@@ -223,7 +223,7 @@ def test_random_star_polygons_get_a_valid_fan(seed):
     rng = np.random.default_rng(seed)
     for _ in range(40):
         xy = random_affine(rng, random_star_polygon(rng))
-        extra, triangles, interior = triangulate(xy)
+        extra, triangles, interior = sub_triangulate(xy)
         assert extra.shape == (1, 2)
         assert_valid_triangulation(xy, triangles, interior, extra)
 
@@ -234,7 +234,7 @@ def test_random_combs_triangulate_validly(seed):
     n_ears = 0
     for _ in range(20):
         xy = random_affine(rng, random_comb(rng))
-        extra, triangles, interior = triangulate(xy)
+        extra, triangles, interior = sub_triangulate(xy)
         assert_valid_triangulation(xy, triangles, interior, extra)
         if extra.shape[0] == 0:
             assert_deepest_diagonal(xy, triangles, interior)

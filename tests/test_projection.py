@@ -11,7 +11,7 @@ from scipy.spatial import ConvexHull
 
 from dolfinx_sfvem.monomials import (evaluate_monomials, exponents, gauss_legendre, n_monomials,
                                      polygon_monomial_integrals)
-from dolfinx_sfvem.projection import (RANK_TOL, build_projections, cholesky, kernel_dimensions,
+from dolfinx_sfvem.projection import (RANK_TOL, build_projections, cholesky, null_space_dimensions,
                                       orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system)
 
 
@@ -258,8 +258,8 @@ def test_automatic_l_matches_design_table(name):
     assert build_one(POLYGONS[name]).l[0] == design_l(name)
 
 
-def svd_kernel_dimensions(xy: np.ndarray, l: int) -> tuple[int, int]:
-    """Kernel dimensions of Pi^0_l grad and of sym Pi^0_l grad by LAPACK SVD in the L2-orthonormal basis."""
+def svd_null_space_dimensions(xy: np.ndarray, l: int) -> tuple[int, int]:
+    """Null-space dimensions of Pi^0_l grad and of sym Pi^0_l grad by LAPACK SVD in the L2-orthonormal basis."""
     area, x_E, h_E = polygon_geometry(xy)
     M, R = projection_system(xy, x_E, h_E, pi_nabla_2(xy, x_E, h_E, area), l)
     L = np.linalg.cholesky(M)
@@ -267,15 +267,15 @@ def svd_kernel_dimensions(xy: np.ndarray, l: int) -> tuple[int, int]:
     zero = np.zeros_like(Q[0])
     strain = np.block([[Q[0], zero], [zero, Q[1]], [Q[1] / np.sqrt(2), Q[0] / np.sqrt(2)]])
 
-    def kernel(A):
+    def nullity(A):
         sigma = np.linalg.svd(A, compute_uv=False)
         return A.shape[1] - np.sum(sigma > RANK_TOL * sigma[0])
 
-    return kernel(np.vstack([Q[0], Q[1]])), kernel(strain)
+    return nullity(np.vstack([Q[0], Q[1]])), nullity(strain)
 
 
 @pytest.mark.parametrize("name", POLYGONS)
-def test_kernel_dimensions_agree_with_svd(name):
+def test_null_space_dimensions_agree_with_svd(name):
     xy = POLYGONS[name]
     area, x_E, h_E = polygon_geometry(xy)
     Pi_nabla = pi_nabla_2(xy, x_E, h_E, area)
@@ -283,16 +283,16 @@ def test_kernel_dimensions_agree_with_svd(name):
         M, R = projection_system(xy, x_E, h_E, Pi_nabla, l)
         L, mass_ok = cholesky(M)
         assert mass_ok
-        assert kernel_dimensions(orthonormal_moments(L, R), RANK_TOL) == svd_kernel_dimensions(xy, l)
+        assert null_space_dimensions(orthonormal_moments(L, R), RANK_TOL) == svd_null_space_dimensions(xy, l)
 
 
 def test_strain_criterion_is_stricter_than_gradient_criterion():
-    """The U-shaped octagon at l = 3: only constants in the scalar kernel, yet spurious strain-free modes."""
+    """The U-shaped octagon at l = 3: only constants in the scalar null space, yet spurious strain-free modes."""
     U = POLYGONS["U (not star-shaped)"]
-    gradient_kernel, strain_kernel = svd_kernel_dimensions(U, 3)
-    assert gradient_kernel == 1 and strain_kernel > 3
+    gradient_nullity, strain_nullity = svd_null_space_dimensions(U, 3)
+    assert gradient_nullity == 1 and strain_nullity > 3
     assert build_one(U).l[0] > 3
-    with pytest.raises(ValueError, match=rf"polygon 0: l=3 is rank-deficient \({strain_kernel} zero-strain modes"):
+    with pytest.raises(ValueError, match=rf"polygon 0: l=3 is rank-deficient \({strain_nullity} zero-strain modes"):
         build_one(U, l=3)
 
 

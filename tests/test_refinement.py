@@ -10,9 +10,11 @@ import sys
 
 import pytest
 
+from dolfinx_sfvem.run_summary import RunSummary
+
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
 import refinement  # noqa: E402
-import results  # noqa: E402
+import results_runner  # noqa: E402
 from test_results import summary, write  # noqa: E402
 
 
@@ -36,15 +38,15 @@ THIN = refinement.Size("thin", ("--h", "1"), 1.0, "t", may_stop=True)
     (SIZE, None, None),
 ])
 def test_verdict(size, content, verdict):
-    assert refinement.expected(size, content) is verdict
+    assert refinement.expected(size, content and RunSummary.from_dict(content)) is verdict
 
 
 def test_rows_give_the_smallest_gap_and_the_change_against_the_coarser_mesh():
     study = refinement.STUDIES[0]
     coarse = refinement.Size("coarse", ("--h", "0.1"), 1.0, "s")
     fine = refinement.Size("fine", ("--h", "0.05"), 1.0, "s")
-    rows = refinement.rows(study, [(coarse, "vem", with_gaps(summary(force=2.0), [0.2, 0.05])),
-                                   (fine, "vem", with_gaps(summary(force=1.9), [0.02, 0.04]))])
+    rows = refinement.rows(study, [(size, "vem", RunSummary.from_dict(with_gaps(summary(force=force), gaps)))
+                                   for size, force, gaps in ((coarse, 2.0, [0.2, 0.05]), (fine, 1.9, [0.02, 0.04]))])
     assert rows[0][4] == "+5.000e-02" and rows[1][4] == "+2.000e-02"          # smallest over the path
     assert rows[1][6] == "+4.000e-02"                                         # final gap
     assert rows[0][8] == "—" and rows[1][8] == "-5.00%"
@@ -56,7 +58,7 @@ def test_plan_uses_the_demos_options():
     names = [run.name for *_, run in entries]
     assert len(names) == len(set(names)) == 2 * sum(len(s.sizes) for s in refinement.STUDIES)
     for _, _, _, run in entries:
-        results.expected_parameters(run)           # the demo's own parser accepts the options
+        results_runner.expected_parameters(run)           # the demo's own parser accepts the options
     assert all(len(s.sizes) >= 2 for s in refinement.STUDIES)
     assert len(refinement.plan(quick=True, ranks=2)) == 2 * refinement.QUICK_SIZES
 

@@ -14,7 +14,10 @@ import pytest
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
 import box_self_contact as box  # noqa: E402
-import results  # noqa: E402
+from dolfinx_sfvem import paper  # noqa: E402
+import results_plan  # noqa: E402
+import results_report  # noqa: E402
+import results_runner  # noqa: E402
 
 
 def summary(*, converged: bool = True, loads=(0.5, 1.0), force: float = 2.0, extra: dict | None = None,
@@ -35,52 +38,52 @@ def write(directory: pathlib.Path, content: dict) -> None:
 
 
 def paper_gaps(scale: float = 1.0) -> dict[tuple[float, float, int], float]:
-    return {key: scale * value for key, value in results.paper_gaps().items()}
+    return {key: scale * value for key, value in results_report.paper_gaps().items()}
 
 
-def by_criterion(checks: list[results.Check]) -> dict[str, str]:
+def by_criterion(checks: list[results_report.Check]) -> dict[str, str]:
     return {c.criterion: c.result for c in checks}
 
 
 # --------------------------------------------------------------------------- acceptance logic
 def test_acceptance_passes_on_the_papers_values_and_near_them():
     for scale in (1.0, 0.3, 1.2):                                # 1.2: largest gamma = 1e-6 gap 9.9e-4
-        checks = results.table2_acceptance(paper_gaps(scale))
-        assert len(checks) == len(box.PAPER_TABLE2) + 3
+        checks = results_report.table2_acceptance(paper_gaps(scale))
+        assert len(checks) == len(paper.TABLE2) + 3
         assert all(c.result == "PASS" for c in checks), checks
-        assert results.overall(checks) == "PASS"
+        assert results_report.overall(checks) == "PASS"
 
 
 def test_acceptance_fails_where_it_should():
     gaps = paper_gaps()
     gaps[(10.0, 1e-4, 2)] *= 20                                   # one gap 20x too large
-    checks = by_criterion(results.table2_acceptance(gaps))
+    checks = by_criterion(results_report.table2_acceptance(gaps))
     assert checks["alpha_r = 10, gamma = 0.0001: g / paper in [0.1, 10]"] == "FAIL"
     assert checks["alpha_r = 1, gamma = 0.0001: g / paper in [0.1, 10]"] == "PASS"
-    assert results.overall(results.table2_acceptance(gaps)) == "FAIL"
+    assert results_report.overall(results_report.table2_acceptance(gaps)) == "FAIL"
 
     gaps = paper_gaps()
     gaps[(1.0, 1e-5, 1)] = 0.9 * gaps[(1.0, 1e-6, 1)]              # no fall from gamma 1e-5 to 1e-6
-    assert by_criterion(results.table2_acceptance(gaps))["g falls as gamma falls (every alpha_r, mesh)"] == "FAIL"
+    assert by_criterion(results_report.table2_acceptance(gaps))["g falls as gamma falls (every alpha_r, mesh)"] == "FAIL"
 
     gaps = paper_gaps()
     for g in (1e-4, 1e-5, 1e-6):                                  # alpha_r = 0.1 gaps 100x smaller on mesh 3
         gaps[(0.1, g, 3)] /= 100
-    result = results.table2_acceptance(gaps)
+    result = results_report.table2_acceptance(gaps)
     assert next(c for c in result if c.criterion.startswith("gamma matters more")).result == "FAIL"
 
     gaps = paper_gaps()
     gaps[(10.0, 1e-6, 3)] = 1.5e-3
-    assert next(c for c in results.table2_acceptance(gaps) if c.criterion.startswith("every gamma")).result == "FAIL"
+    assert next(c for c in results_report.table2_acceptance(gaps) if c.criterion.startswith("every gamma")).result == "FAIL"
 
 
 def test_acceptance_is_incomplete_with_missing_runs():
     gaps = {key: value for key, value in paper_gaps().items() if key[2] == 1}     # mesh 1 only
-    checks = results.table2_acceptance(gaps)
+    checks = results_report.table2_acceptance(gaps)
     assert {c.result for c in checks} == {"INCOMPLETE"}
-    assert results.overall(checks) == "INCOMPLETE"
+    assert results_report.overall(checks) == "INCOMPLETE"
     gaps[(0.1, 1e-6, 1)] = 5e-3                                   # a failure still shows
-    assert results.overall(results.table2_acceptance(gaps)) == "FAIL"
+    assert results_report.overall(results_report.table2_acceptance(gaps)) == "FAIL"
 
 
 # --------------------------------------------------------------------------- the page
@@ -89,17 +92,17 @@ def page(tmp_path):
     """results.md written from: all Table 2 runs (1.1 x the paper), C-box mesh 1 both methods and
     its 1-rank check, one FEM run short of the full load; everything else missing."""
     root, docs = tmp_path / "results", tmp_path / "docs"
-    for (a, g), values in box.PAPER_TABLE2.items():
+    for (a, g), values in paper.TABLE2.items():
         for m in (1, 2, 3):
-            write(box.run_dir(root / results.TABLE2_DIR, "huhu_lulu", box.BETA, a, g, m),
+            write(box.run_dir(root / results_plan.TABLE2_DIR, "huhu_lulu", box.BETA, a, g, m),
                   summary(extra={"gap": 1.1 * values[m - 1]}))
     write(root / "cbox-mesh1-vem", summary(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5))
     write(root / "cbox-mesh1-fem", {**summary(force=2.1, extra={"tip_ux": -0.1}, uy=-0.5, method="fem"),
                                     "cell_type": "quadrilateral"})
     write(root / "cbox-mesh1-vem-np1", summary(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5, ranks=1))
     write(root / "cbox-mesh2-fem", summary(converged=False, loads=(0.5,), method="fem", uy=-0.5))
-    runs = results.plan(quick=False, ranks=2)
-    checks = results.write_report(runs, root, docs, quick=False)
+    runs = results_plan.plan(quick=False, ranks=2)
+    checks = results_report.write_report(runs, root, docs, quick=False)
     return (docs / "results.md").read_text(), checks, docs
 
 
@@ -109,10 +112,10 @@ def test_page_tables(page):
                     "### SFVEM vs FEM", "## 1 rank vs N ranks", "## Where we differ from the paper and why"):
         assert heading in text, heading
     assert "| alpha_r | gamma | g mesh 1 | paper mesh 1 | g/paper mesh 1 |" in text
-    assert f"| 10 | 0.0001 | {1.1 * box.PAPER_TABLE2[(10.0, 1e-4)][0]:.4e} | " \
-           f"{box.PAPER_TABLE2[(10.0, 1e-4)][0]:.4e} | 1.100 |" in text
+    assert f"| 10 | 0.0001 | {1.1 * paper.TABLE2[(10.0, 1e-4)][0]:.4e} | " \
+           f"{paper.TABLE2[(10.0, 1e-4)][0]:.4e} | 1.100 |" in text
     assert "| regularization | g mesh 1 |" in text
-    assert results.overall(checks) == "PASS" and "Overall: **PASS**" in text
+    assert results_report.overall(checks) == "PASS" and "Overall: **PASS**" in text
     # SFVEM vs FEM: force 2.0 vs 2.1 at the full load
     assert "| u_y = -0.5, gamma = 1e-5, alpha_r = 1, medium mesh 1 | SFVEM | full load | 2 | 1234 | 1 | 2 |" in text
     assert "| u_y = -0.5, gamma = 1e-5, alpha_r = 1, medium mesh 1 | Q2 FEM | full load |" in text
@@ -135,17 +138,17 @@ def test_page_lists_missing_and_short_runs(page):
 
 
 def test_plan_and_selection():
-    runs = results.plan(quick=True, ranks=2)
+    runs = results_plan.plan(quick=True, ranks=2)
     names = [r.name for r in runs]
     assert len(names) == len(set(names))
     box_vem = next(r for r in runs if r.name == "box-mesh1-vem")
-    assert box_vem.out.startswith(results.TABLE2_DIR)            # shared with the Table 2 sweep
+    assert box_vem.out.startswith(results_plan.TABLE2_DIR)            # shared with the Table 2 sweep
     assert ("--h", "0.1") == box_vem.argv[box_vem.argv.index("--h"):box_vem.argv.index("--h") + 2]
-    assert [r.name for r in results.select(runs, "cbox-mesh1-*")] == [
+    assert [r.name for r in results_plan.select(runs, "cbox-mesh1-*")] == [
         "cbox-mesh1-vem", "cbox-mesh1-fem", "cbox-mesh1-vem-np1", "cbox-mesh1-fem-np1"]
     with pytest.raises(ValueError, match="no run matches nothing"):
-        results.select(runs, "nothing")
-    serial = results.plan(quick=True, ranks=1)                    # no rank check on 1 rank
+        results_plan.select(runs, "nothing")
+    serial = results_plan.plan(quick=True, ranks=1)                    # no rank check on 1 rank
     assert all(r.ranks == 1 for r in serial) and not any(r.reference for r in serial)
 
 
@@ -153,34 +156,34 @@ def test_plan_and_selection():
 def test_restart_decisions(tmp_path):
     """Skip a converged run with the same parameters, resume an interrupted one, keep a failed
     one unless asked, move a run of other parameters aside."""
-    run = next(r for r in results.plan(quick=False, ranks=2) if r.name == "cbox-mesh1-vem")
+    run = next(r for r in results_plan.plan(quick=False, ranks=2) if r.name == "cbox-mesh1-vem")
     params = {"method": "vem", "uy": -0.5, "steps": 50, "mesh": 1, "h": 0.05, "gamma": 1e-5}
     done = {**summary(uy=-0.5), "parameters": params}
     write(tmp_path / run.out, done)
-    assert results.state(run, tmp_path) == "done"
-    assert results.prepare(run, tmp_path, retry_failed=False)[:2] == (False, False)
-    assert results.remaining(run, tmp_path, retry_failed=False) == 0
+    assert results_runner.state(run, tmp_path) == "done"
+    assert results_runner.prepare(run, tmp_path, retry_failed=False)[:2] == (False, False)
+    assert results_runner.remaining(run, tmp_path, retry_failed=False) == 0
 
     write(tmp_path / run.out, {**done, "converged": False, "message": "running"})
-    assert results.state(run, tmp_path) == "other"                    # no checkpoint: start again
+    assert results_runner.state(run, tmp_path) == "other"                    # no checkpoint: start again
     (tmp_path / run.out / "checkpoint.npz").write_bytes(b"")
-    assert results.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
+    assert results_runner.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
     # killed while its HDF5 file was open: the superblock was never written, the XDMF goes aside
     (tmp_path / run.out / "displacement.h5").write_bytes(bytes(64))
     (tmp_path / run.out / "displacement.xdmf").write_text("<Xdmf/>")
-    go, resume, note = results.prepare(run, tmp_path, retry_failed=False)
+    go, resume, note = results_runner.prepare(run, tmp_path, retry_failed=False)
     assert (go, resume) == (True, True) and "unreadable XDMF output moved" in note
     assert not (tmp_path / run.out / "displacement.h5").exists()
     assert len(list((tmp_path / "superseded").glob("cbox-mesh1-vem-xdmf-*/displacement.h5"))) == 1
-    (tmp_path / run.out / "displacement.h5").write_bytes(results.HDF5_SIGNATURE + bytes(56))
-    assert results.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
+    (tmp_path / run.out / "displacement.h5").write_bytes(results_runner.HDF5_SIGNATURE + bytes(56))
+    assert results_runner.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
 
     write(tmp_path / run.out, {**done, "converged": False, "message": "step 3: failed"})
-    assert results.prepare(run, tmp_path, retry_failed=False)[0] is False
-    assert results.prepare(run, tmp_path, retry_failed=True) == (True, False, "running")
+    assert results_runner.prepare(run, tmp_path, retry_failed=False)[0] is False
+    assert results_runner.prepare(run, tmp_path, retry_failed=True) == (True, False, "running")
 
     write(tmp_path / run.out, {**done, "parameters": {**params, "steps": 10}})
-    go, resume, note = results.prepare(run, tmp_path, retry_failed=False)
+    go, resume, note = results_runner.prepare(run, tmp_path, retry_failed=False)
     assert (go, resume) == (True, False) and "moved" in note
     assert not (tmp_path / run.out).exists()
     assert len(list((tmp_path / "superseded").glob("cbox-mesh1-vem-*/cbox-mesh1-vem/summary.json"))) == 1
@@ -188,7 +191,7 @@ def test_restart_decisions(tmp_path):
 
 def test_stops_are_sorted_by_their_analysed_cause():
     mesh3 = [f"box-table2/huhu_lulu-beta5/{run}-mesh3" for run in ("alpha_r1-gamma1e-06", "alpha_r10-gamma1e-04")]
-    explained, unexplained = results.explain_stops(
+    explained, unexplained = results_report.explain_stops(
         ["cbox-mesh1-fem", mesh3[0], "box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh2", mesh3[1],
          "punch-rigid-vem"])
     assert unexplained == ["cbox-mesh1-fem", "box-table2/huhu_lulu-beta5/alpha_r1-gamma1e-06-mesh2", "punch-rigid-vem"]
@@ -198,16 +201,16 @@ def test_stops_are_sorted_by_their_analysed_cause():
 def test_interrupted_runs_are_not_counted_as_stops(tmp_path):
     write(tmp_path / "punch-soft-vem-np1", {**summary(loads=(0.5,)), "converged": False, "message": "running"})
     write(tmp_path / "cbox-mesh1-vem", summary())
-    assert results._short_runs(tmp_path) == ["Interrupted, `make results` continues them: punch-soft-vem-np1.",
+    assert results_report._short_runs(tmp_path) == ["Interrupted, `make results` continues them: punch-soft-vem-np1.",
                                              "Every run that finished reached the full load."]
     write(tmp_path / "punch-rigid-vem", {**summary(loads=(0.5,)), "converged": False, "message": "step 2: failed"})
-    items = results._short_runs(tmp_path)
+    items = results_report._short_runs(tmp_path)
     assert items[1].startswith("Runs short of the full load: punch-rigid-vem (") and "TODO" in items[-1]
 
 
 def test_analysed_causes_name_existing_examples_and_runs():
-    assert set(results.ANALYSED_METHOD_DIFFERENCES) <= {e.key for e in results.EXAMPLES}
-    names = [r.name for r in results.plan(quick=False, ranks=2)]
-    for pattern, _ in results.ANALYSED_STOPS:
+    assert set(results_report.ANALYSED_METHOD_DIFFERENCES) <= {e.key for e in results_plan.EXAMPLES}
+    names = [r.name for r in results_plan.plan(quick=False, ranks=2)]
+    for pattern, _ in results_report.ANALYSED_STOPS:
         first = pattern.split("/")[0]
         assert any(fnmatch.fnmatch(n, first) for n in names), pattern

@@ -2,10 +2,11 @@
 
 Usage::
 
-    python3 -m dolfinx_sfvem.compare cbox [--np N] [--out DIR] [demo options ...]
+    python3 demos/compare.py cbox [--np N] [--out DIR] [demo options ...]
 
 runs ``demos/<demo>.py --method vem --out DIR/vem ...`` and ``... --method fem --out
-DIR/fem ...`` one after the other (each on N MPI ranks with ``--np N``, see :mod:`.mpi_launcher`), passing
+DIR/fem ...`` one after the other (each on N MPI ranks with ``--np N``, see
+:mod:`dolfinx_sfvem.mpi_launcher`), passing
 every other option (the demo's own and PETSc's) through unchanged, the FEM's own options
 (``--fem-NAME VALUE``, e.g. ``--fem-cells triangles``) to the FEM run only, reads the two
 ``summary.json`` files and prints a table: unknowns, load factor reached, the reaction of
@@ -20,7 +21,6 @@ Exit code: 0 if both runs reached the full load, 1 if not, 2 if a run wrote no s
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
@@ -29,10 +29,11 @@ import sys
 import time
 import typing
 
-from . import mpi_launcher, post
+from dolfinx_sfvem import markdown, mpi_launcher, post
+from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
 
 METHODS = ("vem", "fem")
-DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
+DEMOS = pathlib.Path(__file__).resolve().parent
 
 #: one row of the table: quantity, SFVEM value, FEM value, relative difference (or None)
 Row = tuple[str, typing.Any, typing.Any, typing.Optional[float]]
@@ -83,54 +84,52 @@ def _relative(a, b) -> float | None:
     return (b - a) / abs(a)
 
 
-def _converged_steps(summary: typing.Mapping) -> list[dict]:
-    return [s for s in summary.get("steps", []) if s.get("converged")]
-
-
-def common_load(vem: typing.Mapping, fem: typing.Mapping, tol: float = 1e-9) -> float | None:
+def common_load(vem: RunSummary, fem: RunSummary, tol: float = 1e-9) -> float | None:
     """The largest load factor at which both runs have a converged step."""
-    loads = [s["load"] for s in _converged_steps(fem)]
-    shared = [s["load"] for s in _converged_steps(vem) if any(abs(s["load"] - f) <= tol for f in loads)]
+    loads = [s.load for s in fem.converged_steps]
+    shared = [s.load for s in vem.converged_steps if any(abs(s.load - f) <= tol for f in loads)]
     return max(shared, default=None)
 
 
-def _step_at(summary: typing.Mapping, load: float | None, tol: float = 1e-9) -> dict:
+def step_at(summary: RunSummary, load: float | None, tol: float = 1e-9) -> Step | None:
+    """The converged step of ``summary`` at the load factor ``load`` (None for None)."""
     if load is None:
-        return {}
-    return next(s for s in _converged_steps(summary) if abs(s["load"] - load) <= tol)
+        return None
+    return next(s for s in summary.converged_steps if abs(s.load - load) <= tol)
 
 
-def compare(vem: typing.Mapping, fem: typing.Mapping, process_wall: typing.Mapping[str, float] | None = None
+def compare(vem: RunSummary, fem: RunSummary, process_wall: typing.Mapping[str, float] | None = None
             ) -> list[Row]:
-    """The comparison table of two ``summary.json`` contents (SFVEM, FEM).
+    """The comparison table of two run summaries (SFVEM, FEM).
 
     Quantities at the largest load factor both reached (:func:`common_load`): the ``load``
     reaction, max |u| and every observer in ``extra``; over the whole run: unknowns, load reached,
     Newton iterations (all attempts, failed ones included), failed attempts, wall times.
     """
     load = common_load(vem, fem)
-    at = {"vem": _step_at(vem, load), "fem": _step_at(fem, load)}
     runs = {"vem": vem, "fem": fem}
+    at = {m: step_at(runs[m], load) for m in METHODS}
+    reached = [step for step in at.values() if step is not None]
 
     def row(name: str, get: typing.Callable[[str], typing.Any]) -> Row:
         a, b = get("vem"), get("fem")
         return name, a, b, _relative(a, b)
 
-    rows = [row("unknowns", lambda m: runs[m].get("dofs")),
-            row("load factor reached", lambda m: max([s["load"] for s in _converged_steps(runs[m])], default=0.0)),
-            row("converged", lambda m: runs[m].get("converged")),
+    rows = [row("unknowns", lambda m: runs[m].dofs),
+            row("load factor reached", lambda m: runs[m].load_reached),
+            row("converged", lambda m: runs[m].converged),
             ("compared at load factor", load, load, None)]
-    if any("load" in at[m].get("reaction", {}) for m in METHODS):
+    if any("load" in step.reaction for step in reached):
         for c, axis in enumerate("xy"):
             rows.append(row(f"reaction load R{axis}",
-                            lambda m, c=c: at[m].get("reaction", {}).get("load", [None] * 2)[c]))
-    if any("max_displacement" in at[m] for m in METHODS):
-        rows.append(row("max |u|", lambda m: at[m].get("max_displacement")))
-    for name in sorted({k for m in METHODS for k in at[m].get("extra", {})}):
-        rows.append(row(name, lambda m, name=name: at[m].get("extra", {}).get(name)))
-    rows += [row("Newton iterations (total)", lambda m: sum(s["newton_iterations"] for s in runs[m].get("steps", []))),
-             row("failed step attempts", lambda m: sum(not s["converged"] for s in runs[m].get("steps", []))),
-             row("solve wall time [s]", lambda m: runs[m].get("wall_time_s"))]
+                            lambda m, c=c: at[m].reaction.get("load", [None] * 2)[c] if at[m] else None))
+    if any(step.max_displacement is not None for step in reached):
+        rows.append(row("max |u|", lambda m: at[m].max_displacement if at[m] else None))
+    for name in sorted({k for step in reached for k in step.extra}):
+        rows.append(row(name, lambda m, name=name: at[m].extra.get(name) if at[m] else None))
+    rows += [row("Newton iterations (total)", lambda m: runs[m].newton_iterations),
+             row("failed step attempts", lambda m: sum(not s.converged for s in runs[m].steps)),
+             row("solve wall time [s]", lambda m: runs[m].wall_time_s)]
     if process_wall is not None:
         rows.append(row("process wall time [s]", lambda m: process_wall.get(m)))
     return rows
@@ -144,17 +143,16 @@ def _format(value) -> str:
     return str(value)
 
 
-def markdown(rows: typing.Sequence[Row]) -> str:
+def comparison_table(rows: typing.Sequence[Row]) -> str:
     """The table in Markdown; the last column is (FEM − SFVEM) / abs(SFVEM)."""
-    lines = ["| quantity | SFVEM | FEM | FEM vs SFVEM |", "|---|---|---|---|"]
-    for name, a, b, rel in rows:
-        diff = "–" if rel is None else f"{rel:+.3%}"
-        lines.append(f"| {name} | {_format(a)} | {_format(b)} | {diff} |")
+    lines = markdown.table(("quantity", "SFVEM", "FEM", "FEM vs SFVEM"),
+                           [(name, _format(a), _format(b), "–" if rel is None else f"{rel:+.3%}")
+                            for name, a, b, rel in rows])
     return "\n".join(lines) + "\n"
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python3 -m dolfinx_sfvem.compare", allow_abbrev=False,
+    p = argparse.ArgumentParser(prog="python3 demos/compare.py", allow_abbrev=False,
                                 description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
                                 epilog="Every other option is passed to both runs of the demo, "
                                        "--fem-NAME VALUE to the FEM run only.")
@@ -186,13 +184,13 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
                                                 common + (fem_only if method == "fem" else []),
                                                 mpi_launcher.command(args.np, launcher=args.mpiexec))
         path = out / method / "summary.json"
-        if not path.is_file():
+        summaries[method] = read_summary(path)
+        if summaries[method] is None:
             print(f"error: the {method} run wrote no {path} (exit code {codes[method]}); see {out / f'{method}.log'}",
                   file=sys.stderr)
             return 2
-        summaries[method] = json.loads(path.read_text())
     rows = compare(summaries["vem"], summaries["fem"], walls)
-    table = markdown(rows)
+    table = comparison_table(rows)
     header = f"# {args.demo}: SFVEM vs FEM\n\nOptions: `{' '.join(options) or '(defaults)'}`" \
              f"{f', {args.np} MPI ranks' if args.np else ''}. Last column: (FEM − SFVEM) / abs(SFVEM); " \
              f"quantities at the largest load factor both runs reached.\n\n"
@@ -202,7 +200,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         "rows": [{"quantity": n, "vem": a, "fem": b, "relative_difference": r} for n, a, b, r in rows]})
     print(table, end="")
     print(f"written: {out / 'comparison.md'}, {out / 'comparison.json'}")
-    return 0 if all(s.get("converged") for s in summaries.values()) else 1
+    return 0 if all(s.converged for s in summaries.values()) else 1
 
 
 if __name__ == "__main__":

@@ -1,0 +1,21 @@
+"""Tools that make polygon meshes, one job per module.
+
+polygon_sets
+    :class:`PolygonSet` (polygons not yet validated), CSR helpers, :func:`glue` (concatenation with
+    coincident points merged; ``PolygonMesh`` then inserts the hanging nodes).
+dual
+    Dual polygons of a triangle mesh.
+grids
+    Structured quadrilateral grids, a quad grid with a refined patch.
+gmsh_io
+    gmsh session, ``.msh`` input, ``.geo``/``.msh`` output.
+gmsh_duals
+    Duals of gmsh Frontal-Delaunay meshes of straight-sided regions (Voronoi-like polygons).
+npz
+    The ``.npz`` format of polygon meshes.
+diagnostics
+    T-junctions and a summary of a mesh.
+
+The paper's geometries made with these tools are in :mod:`dolfinx_sfvem.benchmarks`; users reach
+both through the namespace :mod:`dolfinx_sfvem.meshes`.
+"""

@@ -1,0 +1,181 @@
+"""gmsh I/O: a session of our own, the cells of a gmsh model, ``.msh`` input and ``.geo``/``.msh``
+output.
+
+gmsh is imported lazily (its import changes the SIGINT handler and fails outside the main
+thread).
+"""
+from __future__ import annotations
+
+import contextlib
+import inspect
+import os
+from collections.abc import Iterator, Mapping
+
+import numpy as np
+
+from ..polygon_mesh import PolygonMesh
+from .polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
+
+
+@contextlib.contextmanager
+def gmsh_session() -> Iterator[object]:
+    """A quiet gmsh model of our own; yields the gmsh module.
+
+    If the caller has no gmsh session open, one is initialised and finalised here. If the
+    caller's session is open, it is left open: a new model is added and removed afterwards,
+    and the caller's current model and terminal option are restored.
+    """
+    import gmsh
+
+    ours = not _gmsh_initialized(gmsh)
+    if ours:
+        newer = "interruptible" in inspect.signature(gmsh.initialize).parameters  # newer gmsh: skip its SIGINT handler
+        gmsh.initialize(readConfigFiles=False, **({"interruptible": False} if newer else {}))
+    previous, terminal = gmsh.model.getCurrent(), gmsh.option.getNumber("General.Terminal")
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        if not ours:
+            gmsh.model.add("dolfinx_sfvem")
+        yield gmsh
+    finally:
+        if ours:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous in gmsh.model.list():
+                gmsh.model.setCurrent(previous)
+            gmsh.option.setNumber("General.Terminal", terminal)
+
+
+def _gmsh_initialized(gmsh) -> bool:
+    """Whether a gmsh session is open (gmsh 4.8 has no ``isInitialized``: it lists no model
+    before the first initialisation and raises after a finalisation)."""
+    if hasattr(gmsh, "isInitialized"):
+        return bool(gmsh.isInitialized())
+    try:
+        return len(gmsh.model.list()) > 0
+    except Exception:
+        return False
+
+
+def _surface_regions(gmsh, region_tags: Mapping[str, int] | None) -> dict[int, int]:
+    """Region tag of every 2D entity to read from the current gmsh model.
+
+    With ``region_tags`` (physical-group name -> tag), the surfaces of those groups; without,
+    the surfaces of all 2D physical groups tagged by the group's number, or every surface
+    with tag 0 when the model has no 2D physical group.
+    """
+    groups = [tag for _, tag in gmsh.model.getPhysicalGroups(2)]
+    if region_tags is None:
+        if not groups:
+            return {entity: 0 for _, entity in gmsh.model.getEntities(2)}
+        selected = {group: group for group in groups}
+    else:
+        names = {gmsh.model.getPhysicalName(2, group): group for group in groups}
+        missing = sorted(set(region_tags) - set(names))
+        if missing:
+            raise ValueError(f"2D physical group(s) {missing} not found in the gmsh model; it has "
+                             f"{sorted(names) if names else 'no 2D physical groups'}")
+        selected = {names[name]: tag for name, tag in region_tags.items()}
+    regions: dict[int, int] = {}
+    for group, tag in selected.items():
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(2, group):
+            if regions.setdefault(int(entity), tag) != tag:
+                raise ValueError(f"surface {entity} belongs to two physical groups with different tags")
+    return regions
+
+
+def model_cells(gmsh, region_tags: Mapping[str, int] | None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """All 2D cells of the current gmsh model as polygons of their corner nodes.
+
+    Higher-order nodes are dropped (edges are straight); nodes no cell uses are removed.
+
+    Returns
+    -------
+    points : (n, 2) float64
+    offsets : (m + 1,) int64 and flat : (offsets[-1],) int64
+        Cell i has the points ``flat[offsets[i]:offsets[i+1]]`` (gmsh's node order).
+    tags : (m,) int32
+        Region tag of every cell (see :func:`_surface_regions`).
+    """
+    node_tags, coords, _ = gmsh.model.mesh.getNodes()
+    xyz = coords.reshape(-1, 3)
+    if np.abs(xyz[:, 2]).max(initial=0.0) > length_tolerance(xyz[:, :2]):
+        raise ValueError("the gmsh mesh is not in the plane z = 0")
+    node_order = np.argsort(node_tags)
+    blocks, tags = [], []
+    for entity, tag in _surface_regions(gmsh, region_tags).items():
+        for etype, enodes in zip(*gmsh.model.mesh.getElements(2, entity)[::2]):
+            _, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
+            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
+            blocks.append(node_order[np.searchsorted(node_tags, cells, sorter=node_order)])
+            tags.append(np.full(len(cells), tag, dtype=np.int32))
+    if not blocks:
+        raise ValueError("the gmsh model has no 2D elements in the selected surfaces")
+    sizes = np.concatenate([np.full(len(block), block.shape[1]) for block in blocks])
+    points, flat = compact_points(xyz[:, :2], np.concatenate([block.ravel() for block in blocks]))
+    return points, np.concatenate([[0], np.cumsum(sizes)]), flat, np.concatenate(tags)
+
+
+def from_gmsh(source: str | os.PathLike | None = None,
+              region_tags: Mapping[str, int] | None = None) -> PolygonMesh:
+    """PolygonMesh of the 2D cells of a gmsh mesh, one polygon per cell.
+
+    Triangles, quadrilaterals and any other 2D element type of fixed size are read as
+    polygons of their corner ("primary") nodes; higher-order nodes are ignored.
+
+    Parameters
+    ----------
+    source : path or None
+        A ``.msh`` file (read in a gmsh session of its own), or ``None`` for the current
+        model of the caller's open gmsh session.
+    region_tags : mapping of physical-group name -> region tag, optional
+        Read the surfaces of these 2D physical groups with these tags; a missing group is
+        a ValueError naming it. Default: every 2D physical group, tagged by its number,
+        or all surfaces with tag 0 if the model has no 2D physical group.
+
+    The mesh's ``region_names`` (name -> tag) let :class:`~dolfinx_sfvem.ContactProblem` take
+    materials keyed by the physical groups' names. A gmsh session the caller has open stays open.
+    """
+    if source is None:
+        import gmsh
+
+        points, offsets, flat, tags = model_cells(gmsh, region_tags)
+        names = region_names(gmsh, region_tags)
+    else:
+        path = os.fspath(source)
+        if not os.path.isfile(path):
+            raise FileNotFoundError(path)
+        with gmsh_session() as gmsh:
+            gmsh.merge(path)
+            points, offsets, flat, tags = model_cells(gmsh, region_tags)
+            names = region_names(gmsh, region_tags)
+    mesh = PolygonSet(points, split_csr(offsets, flat), tags).to_mesh()
+    mesh.region_names = names
+    return mesh
+
+
+def region_names(gmsh, region_tags: Mapping[str, int] | None) -> dict[str, int]:
+    """Region tag by name of the current gmsh model's 2D physical groups (``region_tags`` itself
+    when given; unnamed groups are left out)."""
+    if region_tags is not None:
+        return dict(region_tags)
+    return {name: int(group) for _, group in gmsh.model.getPhysicalGroups(2)
+            if (name := gmsh.model.getPhysicalName(2, group))}
+
+
+def write_gmsh(gmsh, stem: str | os.PathLike) -> None:
+    """Write the current gmsh model: ``<stem>.geo``, the geometry with the mesh options
+    ``Mesh.Algorithm`` and ``Mesh.MeshSizeMax`` in force (``gmsh <stem>.geo -2`` meshes it
+    again), and ``<stem>.msh``, its mesh (2D physical groups numbered by region tag)."""
+    stem = os.fspath(stem)
+    gmsh.write(stem + ".msh")
+    gmsh.write(stem + ".geo_unrolled")
+    with open(stem + ".geo_unrolled") as f:
+        geometry = f.read()
+    os.remove(stem + ".geo_unrolled")
+    options = "".join(f"{name} = {gmsh.option.getNumber(name)!r};\n" for name in ("Mesh.Algorithm", "Mesh.MeshSizeMax"))
+    with open(stem + ".geo", "w") as f:
+        f.write(f"// written by dolfinx_sfvem.meshes.write_gmsh; `gmsh {os.path.basename(stem)}.geo -2` meshes it\n"
+                + options + geometry)
