@@ -673,6 +673,28 @@ class PolygonMesh:
         ]
         return "\n".join(lines)
 
+    def refine(self, where=None, levels: int = 1, *, tags: Iterable[int | str] | None = None):
+        """Split the selected polygons ``levels`` times into quadrilaterals (neighbours that are
+        not refined gain hanging nodes); see :func:`dolfinx_sfvem.refine.refine_mesh`.
+
+        Parameters
+        ----------
+        where
+            A marker ``f(x) -> bool (n,)`` of the polygon centroids ``x`` (2, n), a boolean mask
+            (n_polygons,) or polygon indices.
+        levels
+            Number of splits (>= 1).
+        tags
+            Region tags or names (combined with ``where`` by "and").
+
+        Returns
+        -------
+        Refinement
+            ``.mesh`` the refined mesh, ``.parent`` the polygon of this mesh holding each new one.
+        """
+        from .refine import refine_mesh
+        return refine_mesh(self, where, levels, tags=tags)
+
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:
         """Recursive coordinate bisection of the polygon centroids.
