@@ -5,7 +5,9 @@ star-shaped from a centre point -- the polygon itself with the centre of its fan
 sub-triangulation (its centroid if that sees every edge, else the centroid of its kernel), or,
 for a polygon without such a point, the ear triangles of its sub-triangulation with their
 centroids. A piece with vertices v_0 .. v_{n-1} and edge midpoints m_i (on edge v_i v_{i+1})
-becomes the n quadrilaterals [c, m_{i-1}, v_i, m_i]. A polygon that is not refined but shares
+becomes the n quadrilaterals [c, m_{i-1}, v_i, m_i], except at a reflex vertex v_i, where the
+dart-shaped quadrilateral is replaced by the two triangles [c, m_{i-1}, v_i] and [c, v_i, m_i]
+(repeated refinement of darts would give ever thinner polygons). A polygon that is not refined but shares
 a split edge gets that edge's midpoint inserted into its vertex list: a hanging node.
 
 Transfer: the SFVEM DOFs of the refined mesh (vertex values, edge-midpoint values, polygon
@@ -30,7 +32,7 @@ import numpy.typing as npt
 
 from .mesh import PolygonMesh
 from .monomials import evaluate_monomials
-from .polygon import point_segment_distance
+from .polygon import RTOL, point_segment_distance
 from .projection import build_projections
 from .quadrature import polygon_quadrature
 from .space import _GlobalEdges, _ranges, _vertex_positions
@@ -180,12 +182,20 @@ def _split_once(mesh: PolygonMesh, selected: npt.NDArray[np.bool_]
     midpoint_of_entry = n + midpoint_of_entry.reshape(-1)
     midpoints = 0.5 * (mesh.points[split // n] + mesh.points[split % n])
     centre_of_piece = n + split.size + np.arange(centres.shape[0])
-    # quad [c, m_{i-1}, v_i, m_i] for every piece entry i (prev: the entry whose successor is i)
+    # quad [c, m_{i-1}, v_i, m_i] for every piece entry i (prev: the entry whose successor is i);
+    # at a reflex vertex the two triangles [c, m_{i-1}, v_i], [c, v_i, m_i] instead (no darts)
     prev = np.empty_like(nxt)
     prev[nxt] = this
     piece = np.repeat(np.arange(offsets.size - 1), np.diff(offsets))
-    quads = np.column_stack([centre_of_piece[piece], midpoint_of_entry[prev], vertices[this],
-                             midpoint_of_entry[this]])
+    x = mesh.points
+    d_in, d_out = x[vertices[this]] - x[vertices[prev]], x[vertices[nxt]] - x[vertices[this]]
+    reflex = (d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+              < -RTOL * np.hypot(*d_in.T) * np.hypot(*d_out.T))        # collinear (hanging) vertices are not
+    c, m_prev, v, m = centre_of_piece[piece], midpoint_of_entry[prev], vertices[this], midpoint_of_entry[this]
+    children = [np.column_stack([c, m_prev, v, m])[~reflex], np.column_stack([c, m_prev, v])[reflex],
+                np.column_stack([c, v, m])[reflex]]
+    child_polygon = np.concatenate([polygon[piece][~reflex], polygon[piece][reflex], polygon[piece][reflex]])
+    child_sizes = np.concatenate([np.full(k.shape[0], k.shape[1]) for k in children])
 
     # unselected polygons: insert the midpoint of every split edge after its start vertex
     kept = np.flatnonzero(~selected)
@@ -198,14 +208,14 @@ def _split_once(mesh: PolygonMesh, selected: npt.NDArray[np.bool_]
                                                                      np.diff(mesh.offsets)[kept])[hit],
                                                            minlength=kept.size)
     # all polygons, ordered by parent (children of one polygon together, in piece order)
-    parent = np.concatenate([kept, polygon[piece]])
-    sizes = np.concatenate([kept_sizes, np.full(quads.shape[0], 4)])
-    flat = np.concatenate([kept_vertices, quads.ravel()])
+    parent = np.concatenate([kept, child_polygon])
+    sizes = np.concatenate([kept_sizes, child_sizes])
+    flat = np.concatenate([kept_vertices] + [k.ravel() for k in children])
     start = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     order = np.argsort(parent, kind="stable")
     new_offsets = np.concatenate([[0], np.cumsum(sizes[order])]).astype(np.int64)
     new_vertices = flat[_ranges(start[order], sizes[order])]
-    is_child = np.concatenate([np.zeros(kept.size, dtype=bool), np.ones(quads.shape[0], dtype=bool)])[order]
+    is_child = np.concatenate([np.zeros(kept.size, dtype=bool), np.ones(child_polygon.size, dtype=bool)])[order]
     points = np.vstack([mesh.points, midpoints, centres])
     return points, new_offsets, new_vertices, parent[order], is_child
 
