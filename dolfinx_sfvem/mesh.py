@@ -673,7 +673,7 @@ class PolygonMesh:
         ]
         return "\n".join(lines)
 
-    def refine(self, where=None, levels: int = 1, *, tags: Iterable[int | str] | None = None):
+    def refine(self, where=None, levels: int = 1, *, tags: Iterable[int | str] | None = None, max_l: int = 6):
         """Split the selected polygons ``levels`` times into quadrilaterals (neighbours that are
         not refined gain hanging nodes); see :func:`dolfinx_sfvem.refine.refine_mesh`.
 
@@ -686,6 +686,8 @@ class PolygonMesh:
             Number of splits (>= 1).
         tags
             Region tags or names (combined with ``where`` by "and").
+        max_l
+            Neighbours whose hanging nodes would need a projection order above this are split too.
 
         Returns
         -------
@@ -693,7 +695,7 @@ class PolygonMesh:
             ``.mesh`` the refined mesh, ``.parent`` the polygon of this mesh holding each new one.
         """
         from .refine import refine_mesh
-        return refine_mesh(self, where, levels, tags=tags)
+        return refine_mesh(self, where, levels, tags=tags, max_l=max_l)
 
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:

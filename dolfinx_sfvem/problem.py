@@ -325,7 +325,8 @@ class ContactProblem:
         return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
 
     # ------------------------------------------------------------------ local refinement
-    def refine(self, where=None, levels: int = 1, *, tags: typing.Iterable[int | str] | None = None):
+    def refine(self, where=None, levels: int = 1, *, tags: typing.Iterable[int | str] | None = None,
+               max_l: int = 6):
         """Refine the mesh locally and carry the current state over, so that a following
         ``solve(..., from_current_state=True)`` continues from it (collective; SFVEM only).
 
@@ -336,7 +337,7 @@ class ContactProblem:
 
         Parameters
         ----------
-        where, levels, tags
+        where, levels, tags, max_l
             As :meth:`PolygonMesh.refine`.
 
         Returns
@@ -351,7 +352,7 @@ class ContactProblem:
         if self.f_ext is not None:
             raise ValueError("refine: a problem with a body force cannot be refined (the force vector belongs "
                              "to the old mesh); refine first, then call body_force")
-        refinement = refine_mesh(self.mesh, where, levels, tags=tags)
+        refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
         keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
         coarse = np.full((int(keys.max()) + 1, 2), np.nan)
         coarse[keys] = values

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from .mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .polygon import RTOL, point_segment_distance
-from .projection import build_projections
+from .projection import RANK_TOL, _build_all, build_projections
 from .quadrature import polygon_quadrature
 from .space import _GlobalEdges, _ranges, _vertex_positions
 
@@ -54,7 +54,8 @@ class Refinement:
     parent : (mesh.n_polygons,) int64
         The polygon of ``coarse`` containing each polygon of ``mesh``.
     selected : (coarse.n_polygons,) bool
-        The polygons of ``coarse`` that were split (their neighbours may only gain hanging nodes).
+        The polygons of ``coarse`` that were split: the selection and the neighbours split to keep
+        the projection order bounded (:func:`refine_mesh`); the others at most gained hanging nodes.
     levels : int
         Times the selected polygons (and then their children) were split.
     """
@@ -220,8 +221,19 @@ def _split_once(mesh: PolygonMesh, selected: npt.NDArray[np.bool_]
     return points, new_offsets, new_vertices, parent[order], is_child
 
 
+def _beyond_l(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64], vertices: npt.NDArray[np.int64],
+              polygons: npt.NDArray[np.int64], max_l: int) -> npt.NDArray[np.bool_]:
+    """Mask over ``polygons``: no projection order 3 <= l <= max_l passes the rank check."""
+    n = polygons.size
+    nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
+    status = _build_all(points, offsets, vertices, polygons, np.full(n, 3, dtype=np.int64),
+                        np.full(n, max_l, dtype=np.int64), RANK_TOL,
+                        np.concatenate([[0], np.cumsum(6 * nd)]).astype(np.int64))[0]
+    return status != 0
+
+
 def refine_mesh(mesh: PolygonMesh, where: Selection = None, levels: int = 1, *,
-                tags: typing.Iterable[int | str] | None = None) -> Refinement:
+                tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
     """Split the selected polygons ``levels`` times; unrefined neighbours gain hanging nodes.
 
     Parameters
@@ -233,6 +245,10 @@ def refine_mesh(mesh: PolygonMesh, where: Selection = None, levels: int = 1, *,
     levels
         Number of splits (>= 1); level k + 1 splits the children of level k, so a selected
         polygon ends up as about (number of vertices) x 4^(levels - 1) polygons.
+    max_l
+        A neighbour whose new hanging nodes would need a projection order l > ``max_l`` (the
+        rank check of docs/method.md §3; many hanging nodes on one side) is split too, at that
+        level, until no polygon needs more (closure).
 
     Returns
     -------
@@ -241,15 +257,24 @@ def refine_mesh(mesh: PolygonMesh, where: Selection = None, levels: int = 1, *,
     """
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 1:
         raise ValueError(f"refine: levels must be an integer >= 1, got {levels!r}")
-    selected = select_polygons(mesh, where, tags)
-    current, ancestor, chosen = mesh, np.arange(mesh.n_polygons, dtype=np.int64), selected
+    if isinstance(max_l, bool) or not isinstance(max_l, (int, np.integer)) or not 3 <= max_l <= 10:
+        raise ValueError(f"refine: max_l must be an integer in [3, 10], got {max_l!r}")
+    chosen = select_polygons(mesh, where, tags)
+    current, ancestor = mesh, np.arange(mesh.n_polygons, dtype=np.int64)
     for _ in range(int(levels)):
-        points, offsets, vertices, parent, is_child = _split_once(current, chosen)
+        while True:
+            points, offsets, vertices, parent, is_child = _split_once(current, chosen)
+            gained = np.flatnonzero(~is_child & (np.diff(offsets) > np.diff(current.offsets)[parent]))
+            beyond = gained[_beyond_l(points, offsets, vertices, gained, int(max_l))]
+            if beyond.size == 0:
+                break
+            chosen[parent[beyond]] = True
         refined = PolygonMesh(points, np.split(vertices, offsets[1:-1]), current.tags[parent],
                               insert_hanging_nodes=False)
         refined.region_names = dict(mesh.region_names)
         current, ancestor, chosen = refined, ancestor[parent], is_child
-    return Refinement(mesh, current, ancestor, selected, int(levels))
+    split = np.bincount(ancestor, minlength=mesh.n_polygons) > 1
+    return Refinement(mesh, current, ancestor, split, int(levels))
 
 
 # --------------------------------------------------------------------------- state transfer

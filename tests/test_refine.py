@@ -11,6 +11,7 @@ from test_elasticity import YOUNG, POISSON, zero_eigenvalues
 from test_projection import build_one, check_patch, polygon_moments
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem.projection import build_projections
 from dolfinx_sfvem.refine import transfer_state
 
 SOLID, MEDIUM, OTHER = 1, 2, 3
@@ -112,11 +113,26 @@ def test_neighbours_gain_hanging_nodes_and_refinement_repeats():
 
 def test_levels_refine_the_children():
     coarse = sf.meshes.quad_rectangle(2.0, 1.0, 2, 1)
-    r = coarse.refine([0], levels=3)
-    assert r.levels == 3 and r.mesh.n_polygons == 1 + 4 ** 3
-    assert np.count_nonzero(r.parent == 0) == 4 ** 3
-    assert r.mesh.n_polygons == coarse.refine([0]).mesh.refine(lambda x: x[0] < 1).mesh.refine(
-        lambda x: x[0] < 1).mesh.n_polygons
+    r = coarse.refine([0], levels=2)
+    assert r.levels == 2 and r.mesh.n_polygons == 1 + 4 ** 2
+    assert np.count_nonzero(r.parent == 0) == 4 ** 2
+    stepwise = coarse.refine([0]).mesh.refine(lambda x: x[0] < 1).mesh
+    np.testing.assert_array_equal(stepwise.points, r.mesh.points)
+    np.testing.assert_array_equal(stepwise.vertices, r.mesh.vertices)
+
+
+@pytest.mark.parametrize("max_l", [6, 10])
+def test_neighbours_needing_a_high_order_are_split_too(max_l):
+    """Three levels on the middle quad of a strip would put 7 hanging nodes on each neighbour's
+    side (no l <= 10 passes the rank check there): the neighbours are split as well, and every
+    polygon then has a projection order l <= max_l."""
+    coarse = sf.meshes.quad_rectangle(3.0, 1.0, 3, 1)
+    r = coarse.refine([1], levels=3, max_l=max_l)
+    assert r.selected.all()
+    assert build_projections(r.mesh.points, r.mesh.offsets, r.mesh.vertices).l.max() <= max_l
+    gentle = coarse.refine([1], levels=2, max_l=max_l)            # 3 hanging nodes per side: l = 6
+    assert gentle.selected.tolist() == [False, True, False]
+    assert build_projections(gentle.mesh.points, gentle.mesh.offsets, gentle.mesh.vertices).l.max() == 6
 
 
 def test_regions_and_generators():
@@ -161,6 +177,8 @@ def test_bad_input(where, levels, tags, message):
     mesh = sf.meshes.quad_rectangle(3.0, 1.0, 3, 1)
     with pytest.raises(ValueError, match=message):
         mesh.refine(where, levels, tags=tags)
+    with pytest.raises(ValueError, match=r"max_l must be an integer in \[3, 10\]"):
+        mesh.refine([0], max_l=2)
 
 
 # --------------------------------------------------------------------------- state transfer
