@@ -218,10 +218,10 @@ def test_problem_refine_transfers_a_quadratic_state():
 
 
 # --------------------------------------------------------------------------- load paths
-def compressed_block(mesh: sf.PolygonMesh) -> sf.ContactProblem:
+def compressed_block(mesh: sf.PolygonMesh, uy: float = -0.06) -> sf.ContactProblem:
     problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU)}, verbose=False)
     problem.fix(lambda x: np.isclose(x[1], 0.0))
-    problem.prescribe(lambda x: np.isclose(x[1], 1.0), ux=0.02, uy=-0.06, name="top")
+    problem.prescribe(lambda x: np.isclose(x[1], 1.0), ux=-uy / 3, uy=uy, name="top")
     return problem
 
 
@@ -232,22 +232,26 @@ def gathered_state(problem: sf.ContactProblem) -> np.ndarray:
 
 @pytest.mark.mpi
 def test_continued_load_path_matches_the_refined_mesh_from_the_start():
-    """A block compressed in 2 steps, refined in its upper half, then solved on to the same load
-    from the transferred state, ends where the refined mesh solved from the start ends."""
+    """A block compressed to half the load on a coarse mesh, refined in its upper half, then
+    continued to the full load from the transferred state (its first step lands on the load it
+    stopped at), passes through the states of the refined mesh solved from the start."""
     coarse = sf.meshes.quad_rectangle(1.0, 1.0, 3, 3, tag=SOLID)
     upper = lambda x: x[1] > 0.5                                              # noqa: E731
-    continued = compressed_block(coarse)
-    assert continued.solve(steps=2).converged
+    continued = compressed_block(coarse, uy=-0.03)
+    assert continued.solve(steps=1).converged
     continued.refine(upper)
-    after = continued.solve(steps=1, from_current_state=True)
-    assert after.converged and after.steps[-1]["newton_iterations"] <= 3
+    top = next(bc for bc in continued.bcs if bc.name == "top")
+    top.values = {0: 0.02, 1: -0.06}                                          # twice the load reached
+    after = continued.solve(steps=2, from_current_state=True)
+    assert after.converged and after.steps[0]["newton_iterations"] <= 3
 
     reference = compressed_block(coarse.refine(upper).mesh)
     ref = reference.solve(steps=2)
     assert ref.converged
     u, u_ref = gathered_state(continued), gathered_state(reference)
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-8 * np.abs(u_ref).max())
-    np.testing.assert_allclose(after.steps[-1]["reaction"]["top"], ref.steps[-1]["reaction"]["top"], rtol=1e-7)
+    for step, step_ref in zip(after.steps, ref.steps):
+        np.testing.assert_allclose(step["reaction"]["top"], step_ref["reaction"]["top"], rtol=1e-7)
 
 
 @pytest.mark.mpi
