@@ -31,6 +31,9 @@ from .energy import Energy
 from .mesh import PolygonMesh
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
+if typing.TYPE_CHECKING:
+    from .refine import Refinement
+
 CHECKPOINT = "checkpoint.npz"
 #: summary.json message of a run between its steps (what a killed run leaves behind)
 RUNNING = "running"
@@ -325,8 +328,8 @@ class ContactProblem:
         return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
 
     # ------------------------------------------------------------------ local refinement
-    def refine(self, where=None, levels: int = 1, *, tags: typing.Iterable[int | str] | None = None,
-               max_l: int = 6):
+    def refine(self, where: Marker | npt.ArrayLike | None = None, levels: int = 1, *,
+               tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
         """Refine the mesh locally and carry the current state over, so that a following
         ``solve(..., from_current_state=True)`` continues from it (collective; SFVEM only).
 
