@@ -22,7 +22,8 @@ with numba: O(n log n) for meshes with bounded local size variation.
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import dolfinx.mesh
 import numba
@@ -33,6 +34,9 @@ from mpi4py import MPI
 from . import _compat
 from .polygon import (FAILED, FAN, RTOL, centroid, diameter, point_location, point_segment_distance,
                       ear_clipping, segment_distance, self_intersection, signed_area, sub_triangulation)
+
+if TYPE_CHECKING:
+    from .refine import Refinement
 
 # status codes of _orient_and_check
 _OK, _REPEATED, _ZERO_AREA, _SELF_INTERSECTION = 0, 1, 2, 3
@@ -672,6 +676,31 @@ class PolygonMesh:
             "  regions: " + ", ".join(f"{r}: {c} polygons" for r, c in zip(regions, n_by_region)),
         ]
         return "\n".join(lines)
+
+    def refine(self, where: Callable[[np.ndarray], np.ndarray] | npt.ArrayLike | None = None, levels: int = 1, *,
+               tags: Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
+        """Split the selected polygons ``levels`` times into quadrilaterals (neighbours that are
+        not refined gain hanging nodes); see :func:`dolfinx_sfvem.refine.refine_mesh`.
+
+        Parameters
+        ----------
+        where
+            A marker ``f(x) -> bool (n,)`` of the polygon centroids ``x`` (2, n), a boolean mask
+            (n_polygons,) or polygon indices.
+        levels
+            Number of splits (>= 1).
+        tags
+            Region tags or names (combined with ``where`` by "and").
+        max_l
+            Neighbours whose hanging nodes would need a projection order above this are split too.
+
+        Returns
+        -------
+        Refinement
+            ``.mesh`` the refined mesh, ``.parent`` the polygon of this mesh holding each new one.
+        """
+        from .refine import refine_mesh
+        return refine_mesh(self, where, levels, tags=tags, max_l=max_l)
 
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:

@@ -32,6 +32,9 @@ from .polygon_mesh import PolygonMesh
 from .run_summary import RUNNING, STOPPED_BY_SIGNAL
 from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
+if typing.TYPE_CHECKING:
+    from .refine import Refinement
+
 CHECKPOINT = "checkpoint.npz"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -172,6 +175,7 @@ class ContactProblem:
         self.x.set(0.0)
         self._solved = False
         self.parameters: dict[str, typing.Any] = {}
+        self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
 
     def reset(self) -> None:
         """Back to the reference state (u = 0), so that :meth:`solve` may run again."""
@@ -319,6 +323,46 @@ class ContactProblem:
         """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
         indices, values = self.disc.output_point_displacements(self.x)
         return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
+
+    # ------------------------------------------------------------------ local refinement
+    def refine(self, where: Marker | npt.ArrayLike | None = None, levels: int = 1, *,
+               tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
+        """Refine the mesh locally and carry the current state over, so that a following
+        ``solve(..., from_current_state=True)`` continues from it (collective; SFVEM only).
+
+        The discretization is rebuilt on the refined mesh (same materials and options), the
+        boundary conditions are kept (markers are evaluated again on the new nodes, tags select
+        the same regions) and the state is transferred exactly for quadratic fields
+        (:func:`~dolfinx_sfvem.refine.transfer_state`, docs/refinement-local.md).
+
+        Parameters
+        ----------
+        where, levels, tags, max_l
+            As :meth:`PolygonMesh.refine`.
+
+        Returns
+        -------
+        Refinement
+            The new mesh (also ``self.mesh``) and the parent polygon of each new polygon.
+        """
+        from .refine import refine_mesh, transfer_state
+        if self.method != "vem":
+            raise ValueError("refine: only method='vem' can be refined with hanging nodes; for the FEM build a "
+                             "finer problem instead")
+        if self.f_ext is not None:
+            raise ValueError("refine: a problem with a body force cannot be refined (the force vector belongs "
+                             "to the old mesh); refine first, then call body_force")
+        refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
+        keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
+        coarse = np.full((int(keys.max()) + 1, 2), np.nan)
+        coarse[keys] = values
+        fine = transfer_state(refinement, coarse)
+        kept = (self.bcs, self._solved, self.parameters, self._earlier_wall_time)
+        self.x.destroy()
+        self.__init__(refinement.mesh, self.materials, self.method, self.comm, **self._options)
+        self.bcs, self._solved, self.parameters, self._earlier_wall_time = kept
+        self.disc.set_state(np.arange(fine.shape[0]), fine, self.x)
+        return refinement
 
     # ------------------------------------------------------------------ solve
     def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
