@@ -2,7 +2,7 @@
 
 Refinement (docs/refinement-local.md): every selected polygon is cut into *pieces* that are
 star-shaped from a centre point -- the polygon itself with the centre of its fan
-sub-triangulation (its centroid if that sees every edge, else the centroid of its kernel), or,
+sub-triangulation (its centroid if that sees every edge, else the centroid of its visibility region), or,
 for a polygon without such a point, the ear triangles of its sub-triangulation with their
 centroids. A piece with vertices v_0 .. v_{n-1} and edge midpoints m_i (on edge v_i v_{i+1})
 becomes the n quadrilaterals [c, m_{i-1}, v_i, m_i], except at a reflex vertex v_i, where the
@@ -30,7 +30,7 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
-from .mesh import PolygonMesh
+from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .polygon import RTOL, point_segment_distance
 from .projection import RANK_TOL, _build_all, build_projections

@@ -17,8 +17,8 @@ from dolfinx_sfvem.refine import transfer_state
 SOLID, MEDIUM, OTHER = 1, 2, 3
 K, MU = 5 / 3, 5 / 14
 
-U_SHAPE = [[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]]        # no kernel point: ear triangles
-STAR = [[0, 0], [2, 0], [2, 2], [1.2, 0.9], [0, 2]]                                  # centroid outside the kernel
+U_SHAPE = [[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]]        # no visibility-region point: ear triangles
+STAR = [[0, 0], [2, 0], [2, 2], [1.2, 0.9], [0, 2]]                                  # centroid outside the visibility region
 KINDS = {
     "triangle": [[0, 0], [1, 0], [0.3, 0.8]],
     "quadrilateral": [[0, 0], [1, 0], [1.2, 1], [0, 0.7]],
@@ -86,7 +86,7 @@ def check_refined(r) -> None:
 @pytest.mark.parametrize("levels", [1, 2])
 def test_every_polygon_kind(kind, levels):
     """One polygon becomes one quadrilateral per convex vertex and two triangles per reflex one (a
-    polygon without a kernel point: three quadrilaterals per ear triangle); at the next level
+    polygon without a visibility-region point: three quadrilaterals per ear triangle); at the next level
     quadrilaterals make four, triangles three."""
     r = single(KINDS[kind]).refine([0], levels=levels)
     quads, triangles = {"non-convex, star-shaped": (4, 2), "non-convex, not star-shaped": (3 * 6, 0)}.get(
