@@ -35,22 +35,6 @@ def write_npz(path: pathlib.Path, **arrays) -> None:
     os.replace(tmp, path)
 
 
-def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:
-    """Rows of ``values`` whose ``keys`` are ``wanted`` (checkpoint state -> local nodes).
-
-    Raises
-    ------
-    ValueError
-        If a wanted key is missing (the state belongs to another mesh).
-    """
-    order = np.argsort(keys)
-    pos = np.searchsorted(keys, wanted, sorter=order)
-    found = order[np.minimum(pos, keys.size - 1)]
-    if keys.size == 0 or not np.array_equal(keys[found], wanted):
-        raise ValueError("the saved state does not belong to this mesh (node keys differ)")
-    return values[found]
-
-
 def write_json(path: pathlib.Path, data: typing.Mapping) -> None:
     atomic_write_text(path, json.dumps(data, indent=1, default=json_default) + "\n")
 

@@ -180,8 +180,8 @@ def test_resume_after_a_kill_sets_a_broken_hdf5_aside(tmp_path):
     strip_problem().solve(steps=4, out=tmp_path, observers={"stop": stop_after_two})
     assert running["message"] == "running" and 0.0 < running["wall_time_s"] < float("inf")
     stopped = json.loads((tmp_path / "summary.json").read_text())
-    assert sf.problem.interrupted(running) and sf.problem.interrupted(stopped)
-    assert not sf.problem.interrupted({**stopped, "message": "step 3: load step failed"})
+    assert sf.run_output.interrupted(running) and sf.run_output.interrupted(stopped)
+    assert not sf.run_output.interrupted({**stopped, "message": "step 3: load step failed"})
     killed = {**json.loads((tmp_path / "summary.json").read_text()), "message": "running"}
     (tmp_path / "summary.json").write_text(json.dumps(killed))   # as a SIGKILL after step 2 leaves it
     h5 = tmp_path / "displacement.h5"
