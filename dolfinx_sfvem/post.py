@@ -1,4 +1,4 @@
-"""Output of a load path: summary.json, CSV, XDMF and PNG pictures.
+"""File writers of a run: JSON, CSV, NPZ and PNG pictures.
 
 Every file is written to a temporary name and renamed into place, so a run that is
 interrupted never leaves a half-written file behind. Only rank 0 writes JSON/CSV/PNG.

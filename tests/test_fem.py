@@ -3,7 +3,7 @@
 - The tangent is the derivative of the residual and the residual the derivative of the
   reported energy (central differences), for the solid and every regularization of
   Table 1 with and without the exp(-βJ) scaling, on a two-region mesh.
-- Identity rows for constrained unknowns, columns kept (the convention of vem.py).
+- Identity rows for constrained unknowns, columns kept (discretization.Constraints).
 - Through ContactProblem(method="fem"): a homogeneous uniaxial-stress deformation is
   reproduced exactly and the reaction equals the exact traction resultant P(F)·N·H.
 - Manufactured small-strain solution: L2 error ~ h^3, H1 error ~ h^2, for P2 and Q2.
