@@ -29,8 +29,8 @@ from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .interrupt import StopRequest
 from .mesh import PolygonMesh
-from .run_output import (CHECKPOINT, STOPPED_BY_SIGNAL, RunWriter, interrupted,  # noqa: F401 (CHECKPOINT,
-                         progress_line, read_checkpoint)                          # interrupted: the demos' names)
+from .run_output import STOPPED_BY_SIGNAL, RunWriter, progress_line, read_checkpoint
+from .run_output import CHECKPOINT, HDF5_SIGNATURE, interrupted  # noqa: F401  (the demos import them from here)
 from .solver import Attempt, LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
