@@ -67,8 +67,10 @@ def main(argv=None) -> None:
     problem, _ = cb.build(args)
     disc, comm = problem.disc, problem.comm
     assert comm.size == 1, "serial only"
-    constrained, final, dofs_of = problem._constraints()
-    newton = NewtonSolver(disc, constrained, None, problem.f_ext)
+    dofs, final, dofs_of = problem._constraints()
+    disc.set_constraints(dofs)
+    constrained = disc.constraints.mask
+    newton = NewtonSolver(disc, None, problem.f_ext)
     stepper = LoadStepper(args.steps)
     problem._restore_checkpoint(args.src, stepper, args.steps)
     load0 = stepper.load
@@ -86,7 +88,7 @@ def main(argv=None) -> None:
         newton.g[:] = load * final
         newton.load = load
         newton._residual(newton.snes, x, newton.b)
-        newton.disc.jacobian(x, newton.A, constrained)
+        newton.disc.jacobian(x, newton.A)
         stiff = newton._free_row_norm(newton.A)
         newton._stiffness = stiff
         atol = newton.absolute_tolerance(x)
@@ -132,7 +134,7 @@ def main(argv=None) -> None:
     report("last converged state", load0)
     print(f"\n== Newton to load {args.target} from {load0}")
     x_old = problem.x.copy()
-    newton.disc.jacobian(x_old, newton.A, constrained)
+    newton.disc.jacobian(x_old, newton.A)
     K_old = free_block(newton.A, free)
     res = newton.solve(problem.x, args.target * final, args.target)
     d = (problem.x.getArray() - x_old.getArray())[free]
@@ -153,7 +155,7 @@ def taylor_check(newton, problem, constrained, xn) -> None:
     Taylor remainder |R(x + t dx) - R(x) - t K dx| / t (O(t) for a consistent tangent)."""
     x, A = problem.x, newton.A
     newton._residual(newton.snes, x, newton.b)
-    newton.disc.jacobian(x, A, constrained)
+    newton.disc.jacobian(x, A)
     b0 = newton.b.copy()
     ksp = newton.snes.getKSP()
     ksp.setOperators(A)
@@ -213,7 +215,7 @@ def energy_newton(newton, problem, constrained, g, load, max_it=60, verbose=True
         hist.append(r)
         if r < 1e-9:
             break
-        newton.disc.jacobian(x, A, constrained)
+        newton.disc.jacobian(x, A)
         ksp.setOperators(A)
         ksp.solve(b, dx)
         dx.scale(-1.0)
@@ -248,8 +250,10 @@ def main_energy(argv=None):
     p.add_argument("--target", type=float, required=True)
     args = common.parse_args(p, argv)
     problem, _ = cb.build(args)
-    constrained, final, _ = problem._constraints()
-    newton = NewtonSolver(problem.disc, constrained, None, problem.f_ext)
+    dofs, final, _ = problem._constraints()
+    problem.disc.set_constraints(dofs)
+    constrained = problem.disc.constraints.mask
+    newton = NewtonSolver(problem.disc, None, problem.f_ext)
     stepper = LoadStepper(args.steps)
     problem._restore_checkpoint(args.src, stepper, args.steps)
     hist = energy_newton(newton, problem, constrained, args.target * final, args.target)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pathlib
 import typing
 
-from dolfinx_sfvem.problem import CHECKPOINT
+from dolfinx_sfvem.run_output import CHECKPOINT
 from dolfinx_sfvem.run_summary import RunSummary
 
 

@@ -11,10 +11,12 @@ Hyperelastic, ThirdMedium, UserEnergy
     Region energies (paper Eqs. 2-17).
 ContactProblem
     Mesh + energies + boundary conditions + load path, solved with PETSc SNES.
+Discretization
+    The contract both discretizations fulfil (residual, tangent, constraints, state, output).
 VEMSpace, SFVEMDiscretization
     The discrete space and the residual/tangent assembly, for use in own scripts.
-P2Discretization
-    The P2 Lagrange FEM reference on the same energies (``ContactProblem(..., method="fem")``).
+LagrangeDiscretization
+    The P2/Q2 Lagrange FEM reference on the same energies (``ContactProblem(..., method="fem")``).
 linear_elastic_stiffness
     The plane-strain linear-elastic SFVEM stiffness of one polygon.
 meshes
@@ -24,7 +26,8 @@ from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it l
 from . import meshes
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
-from .fem import P2Discretization
+from .discretization import Discretization
+from .fem import LagrangeDiscretization
 from .polygon_mesh import PolygonMesh
 from .problem import ContactProblem
 from .solver import SolveFailed, set_petsc_options
@@ -34,5 +37,5 @@ from .vem import SFVEMDiscretization
 __version__ = "0.1.0"
 
 __all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
-           "VEMSpace", "SFVEMDiscretization", "P2Discretization", "linear_elastic_stiffness", "meshes", "SolveFailed",
-           "set_petsc_options"]
+           "Discretization", "VEMSpace", "SFVEMDiscretization", "LagrangeDiscretization", "linear_elastic_stiffness",
+           "meshes", "SolveFailed", "set_petsc_options"]

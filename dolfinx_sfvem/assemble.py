@@ -23,6 +23,8 @@ of the a-th DOF of the polygon.
 """
 from __future__ import annotations
 
+import typing
+
 import numba
 import numpy as np
 
@@ -32,6 +34,33 @@ from .monomials import evaluate_monomials
 #: fast-math flags of the contraction loops: FMA and reassociated sums (vectorisable);
 #: NaN/Inf semantics unchanged (the J check must see NaN)
 CONTRACT = {"contract", "reassoc"}
+
+
+class PolygonTables(typing.NamedTuple):
+    """What the energy loops read of every local polygon e (a NamedTuple: numba takes it as one
+    argument).
+
+    Attributes
+    ----------
+    dof_off : (n_polygons + 1,) int64
+        Polygon e's DOFs are ``dofs[dof_off[e]:dof_off[e + 1]]`` (nd = 2N + 1 of them).
+    dofs : (dof_off[-1],) int
+        Local node of every polygon DOF (vertices, edge midpoints, then the mean).
+    phi_off : (n_polygons + 1,) int64
+        Offsets of the polygons' basis derivative tables in ``Phi``.
+    Phi : (phi_off[-1],)
+        Basis derivative tables of :func:`basis_derivative_tables` (Eqs. 43, 45).
+    q_off : (n_polygons + 1,) int64
+        Polygon e's quadrature points are ``q_off[e]:q_off[e + 1]``.
+    w_q : (q_off[-1],)
+        Quadrature weights [area].
+    """
+    dof_off: np.ndarray
+    dofs: np.ndarray
+    phi_off: np.ndarray
+    Phi: np.ndarray
+    q_off: np.ndarray
+    w_q: np.ndarray
 
 
 @numba.njit(cache=True)
@@ -162,8 +191,7 @@ def _dot_rows(X, a, Y, b):
 
 
 @numba.njit(cache=True, fastmath=CONTRACT)
-def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
-                  dof_off, dofs, phi_off, Phi, q_off, w_q, u, R, stats):
+def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons, tables, u, R, stats):
     """Add the residual (Eq. 52) of ``polygons`` to ``R`` and accumulate diagnostics.
 
     Parameters
@@ -174,14 +202,15 @@ def residual_loop(kernel, c, F_at, G_at, P_at, T_at, uses_gradient, polygons,
         Constants of the kernel (parameters already packed; F, G written here).
     polygons : (n,) int64
         Local polygon indices of one material region.
-    Phi, phi_off
-        Basis derivative tables of :func:`basis_derivative_tables` (nphi = 6 if
-        ``uses_gradient`` else 2 for these polygons).
+    tables : PolygonTables
+        Their DOFs, basis derivative tables (nphi = 6 if ``uses_gradient`` else 2 for these
+        polygons) and quadrature weights.
     u, R : (n_local_nodes, 2)
         Local (owned + ghost) nodal displacements and residual.
     stats : (3,)
         In/out: [energy Σ w Ψ, min J, local polygon index of min J].
     """
+    dof_off, dofs, phi_off, Phi, q_off, w_q = tables
     out = np.zeros(13)
     scratch = kernel_scratch()
     nphi = 6 if uses_gradient else 2
@@ -250,16 +279,17 @@ def _apply_C(CC, p, table, W, nphi):
 
 
 @numba.njit(cache=True, fastmath=CONTRACT)
-def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons,
-                 dof_off, dofs, phi_off, Phi, q_off, w_q, u, values, coo_off):
+def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons, tables, u, values, coo_off):
     """Write the tangent (Eq. 56) of ``polygons`` into the COO value array.
 
     The element matrix of local polygon e is stored row-major, node-major, at
     ``values[coo_off[e]:coo_off[e] + (2 nd)²]``. Per component pair (i, m) and with
     W_b = Σ_q w_q C_im(x_q) Φ_b(x_q), K[(a, i), (b, m)] = Σ_(q, α) Φ[a, (q, α)] W[b, (q, α)]:
     one dot product over all points per entry. K is a Hessian: the pair (1, 0) and the
-    entries b < a of the pairs (0, 0) and (1, 1) are mirrored, not integrated.
+    entries b < a of the pairs (0, 0) and (1, 1) are mirrored, not integrated. ``tables``
+    (:class:`PolygonTables`) and ``u`` as in :func:`residual_loop`.
     """
+    dof_off, dofs, phi_off, Phi, q_off, w_q = tables
     out = np.zeros(112)
     scratch = kernel_scratch()
     nphi = 6 if uses_gradient else 2

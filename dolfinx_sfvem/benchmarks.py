@@ -135,7 +135,7 @@ def cbox_grid(h_solid: float = 0.05, medium_refinement: int = 1, column: float =
     """The C-box of :func:`cbox` (same geometry and ``column``) meshed entirely
     by its medium grid: rectangles of size ``h_solid / medium_refinement``, solid included,
     no hanging nodes. The mesh for degree-2 Lagrange FEM on quadrilaterals (Q2), see
-    :meth:`~dolfinx_sfvem.fem.P2Discretization.from_polygon_mesh` with ``fem_mesh``.
+    :meth:`~dolfinx_sfvem.fem.LagrangeDiscretization.from_polygon_mesh` with ``fem_mesh``.
     """
     xs, ys = _cbox_axes(h_solid, medium_refinement, column)
     return _cbox_benchmark(glue(quad_grid(xs, ys, SOLID, lambda cx, cy: ~_cbox_medium(cx, cy)),

@@ -13,10 +13,8 @@ FFCx-compiled form serves every parameter value. The residual is ``ufl.derivativ
 linear in each direction in a Q2 parallelogram): the broken second gradient, without
 inter-element jump terms (as the SFVEM's G is polygon-wise).
 
-The class mirrors :class:`~dolfinx_sfvem.vem.SFVEMDiscretization` (the protocol
-:class:`~dolfinx_sfvem.problem.ContactProblem` and the solver use): PETSc vectors with
-block size 2 laid out ``2 * node + component`` (node = blocked P2 dof), Dirichlet rows
-as identity rows with the columns kept, diagnostics as :class:`~dolfinx_sfvem.vem.AssemblyInfo`.
+The class fulfils the contract of :class:`~dolfinx_sfvem.discretization.Discretization`, as
+:class:`~dolfinx_sfvem.vem.SFVEMDiscretization` does: node = blocked P2 dof.
 
 Quadrature: degree 4 by default (6 points per triangle, 3 x 3 Gauss on quadrilaterals). F is
 linear and G constant in a P2 triangle, so the small-strain part of every energy and the
@@ -29,7 +27,7 @@ The second gradient is cell-wise: a field that kinks along an element edge carri
 regularization energy there, so in strong compression the FEM medium can fold along element
 edges where the SFVEM's (projected over whole polygons) does not. Option ``jump_penalty=eta``
 adds C0 interior-penalty terms on the medium's interior facets
-(:meth:`P2Discretization._jump_energy`), which stop such folds but change the model (the
+(:meth:`LagrangeDiscretization._jump_energy`), which stop such folds but change the model (the
 regularization then acts across elements); off by default, as the paper's model is the
 element-wise regularization. Measurements: docs/fem-reference.md.
 """
@@ -46,16 +44,16 @@ import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
 
-from . import _compat, post
+from . import _compat
+from .discretization import AssemblyInfo, Discretization, Marker, check_materials
 from .energy import Energy
 from .polygon_mesh import PolygonMesh
 from .injectivity import folded_elements, gather_count
 from .remesh import matched_triangulation, sfvem_unknowns, triangulate
-from .vem import AssemblyInfo, check_materials
 
 #: default quadrature degree of the energy, residual and tangent (see the module docstring)
 QUADRATURE_DEGREE = 4
-#: degree of the rule used by :meth:`P2Discretization.error_norms`
+#: degree of the rule used by :meth:`LagrangeDiscretization.error_norms`
 ERROR_QUADRATURE_DEGREE = 8
 
 #: vertex count -> the vertices (DOLFINx's local numbering) of the reference edges that carry
@@ -108,7 +106,7 @@ def _gather_cells(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
 
 def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | None
                ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-    """The FEM cells for :meth:`P2Discretization.from_polygon_mesh`: (h, points (n, 2),
+    """The FEM cells for :meth:`LagrangeDiscretization.from_polygon_mesh`: (h, points (n, 2),
     cells (m, 3 or 4) counter-clockwise, tags (m,)); h is the longest cell edge of ``fem_mesh``."""
     if fem_mesh is None:
         h, tri = matched_triangulation(mesh) if fem_h is None else (float(fem_h), triangulate(mesh, fem_h))
@@ -132,7 +130,7 @@ def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | N
     return h, fem_mesh.points, cells, fem_mesh.tags
 
 
-class P2Discretization:
+class LagrangeDiscretization(Discretization):
     """Degree-2 Lagrange FEM discretization of Σ_tag ∫ ψ_tag(F, ∇F) dΩ: P2 on a DOLFINx
     triangle mesh, Q2 on a quadrilateral mesh.
 
@@ -186,7 +184,12 @@ class P2Discretization:
 
     # ------------------------------------------------------------------ set-up
     def _number_nodes(self, point_of_node: np.ndarray) -> None:
-        """Coordinates, output point and partition-independent key of every local node."""
+        """Coordinates, output point and partition-independent key of every local node.
+
+        Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
+        ``n_points + a n_points + b`` for the edge's points ``a < b``; of a Q2 cell-centre
+        node: ``n_points + n_points² + c`` for the input index ``c`` of its cell.
+        """
         im = self.V.dofmap.index_map
         n_nodes = im.size_local + im.num_ghosts
         dofs = _compat.cell_dofs(self.V)
@@ -288,7 +291,7 @@ class P2Discretization:
     def from_polygon_mesh(cls, mesh: PolygonMesh, materials: typing.Mapping[int, Energy],
                           comm: MPI.Comm = MPI.COMM_WORLD, *, fem_h: float | None = None,
                           fem_mesh: PolygonMesh | None = None, quadrature_degree: int = QUADRATURE_DEGREE,
-                          jump_penalty: float | None = None, verbose: bool = True) -> "P2Discretization":
+                          jump_penalty: float | None = None, verbose: bool = True) -> "LagrangeDiscretization":
         """The degree-2 FEM discretization of the geometry and regions of a polygon mesh.
 
         By default the regions are meshed again with triangles
@@ -383,20 +386,12 @@ class P2Discretization:
         dolfinx.fem.petsc.assemble_vector(b, self._medium_form)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
-    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
-        """Tangent ∂²Π/∂u² at x into A; rows of constrained unknowns become identity rows (columns kept).
-
-        Parameters
-        ----------
-        constrained : (n_local_dofs,) bool
-            Constrained unknowns in local (blocked) numbering, consistent across ranks.
-        """
+    def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """Tangent ∂²Π/∂u² at x into A, constraints not applied."""
         self._set_state(x)
         A.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(A, self._tangent_form)
         A.assemble()
-        rows = A.getOwnershipRange()[0] + np.flatnonzero(constrained[:self.n_owned_dofs])
-        A.zeroRows(rows.astype(PETSc.IntType), diag=1.0)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
@@ -416,13 +411,9 @@ class P2Discretization:
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return b
 
-    def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
-                    grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
-        """‖u − u_h‖_L2 and |u − u_h|_H1 = ‖∇u − ∇u_h‖_L2 over the mesh (collective), by a rule of
-        degree :data:`ERROR_QUADRATURE_DEGREE`.
-
-        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
-        """
+    def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Points (n, 2) and weights (n,) of a rule of degree :data:`ERROR_QUADRATURE_DEGREE` on the
+        owned cells with u_h (n, 2) and ∇u_h (n, 2, 2) there: the fields of :meth:`error_norms`."""
         points, weights = _compat.reference_quadrature(self.mesh, ERROR_QUADRATURE_DEGREE)
         if self._error_terms is None:
             X = ufl.SpatialCoordinate(self.mesh)
@@ -431,16 +422,12 @@ class P2Discretization:
             self._error_terms = _compat.CompiledExpression(ufl.as_vector(terms), self.mesh, points)
         self._set_state(x)
         values = self._error_terms(self._owned_cells).reshape(-1, 9)
-        X, u_h, grad_h = values[:, :2].T, values[:, 2:4], values[:, 4:8].reshape(-1, 2, 2)
         w = np.tile(weights, self._owned_cells.size) * values[:, 8]
-        e0 = np.sum(w * np.sum((np.asarray(u_exact(X)).T - u_h) ** 2, axis=1))
-        e1 = np.sum(w * np.sum((np.moveaxis(np.asarray(grad_exact(X)), -1, 0) - grad_h) ** 2, axis=(1, 2)))
-        return (float(np.sqrt(self.comm.allreduce(e0, op=MPI.SUM))),
-                float(np.sqrt(self.comm.allreduce(e1, op=MPI.SUM))))
+        return values[:, :2], w, values[:, 2:4], values[:, 4:8].reshape(-1, 2, 2)
 
     # ------------------------------------------------------------------ locating unknowns
-    def locate_dofs(self, marker=None, tags=None, component: int | None = None) -> np.ndarray:
-        """Local blocked unknowns (owned and ghost) at the P2 nodes selected by marker and/or tags.
+    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local P2 nodes (owned and ghost) selected by marker and/or tags.
 
         Parameters
         ----------
@@ -449,8 +436,6 @@ class P2Discretization:
         tags
             Region tags: all nodes of the cells with these tags (also the nodes this rank holds
             only through cells of other ranks, so the selection is consistent across ranks).
-        component
-            0, 1, or None for both.
         """
         if marker is None and tags is None:
             raise ValueError("give a marker function, region tags, or both")
@@ -462,19 +447,16 @@ class P2Discretization:
             in_tags = np.zeros_like(selected)
             in_tags[dolfinx.fem.locate_dofs_topological(self.V, 2, cells)] = True
             selected &= in_tags
-        nodes = np.flatnonzero(selected)
-        comps = (0, 1) if component is None else (component,)
-        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+        return np.flatnonzero(selected)
 
     @property
-    def n_owned_dofs(self) -> int:
-        return 2 * self.V.dofmap.index_map.size_local
+    def n_owned_nodes(self) -> int:
+        return self.V.dofmap.index_map.size_local
 
     @property
-    def n_local_dofs(self) -> int:
-        """Owned and ghost unknowns of this rank."""
+    def n_local_nodes(self) -> int:
         im = self.V.dofmap.index_map
-        return 2 * (im.size_local + im.num_ghosts)
+        return im.size_local + im.num_ghosts
 
     @property
     def num_dofs_global(self) -> int:
@@ -495,37 +477,16 @@ class P2Discretization:
             values[found] = self.u.eval(xyz, local[found])
         return values, found
 
-    def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
-        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
-        return self.x_nodes[dofs // 2]
-
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
         return np.asarray(value(self.x_nodes[dofs // 2].T), dtype=np.float64).reshape(-1)
 
-    # ------------------------------------------------------------------ state (checkpoints)
-    def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2)).
-
-        Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
-        ``n_points + a n_points + b`` for the edge's points ``a < b``; of a Q2 cell-centre
-        node: ``n_points + n_points² + c`` for the input index ``c`` of its cell.
-        """
-        n_owned = self.V.dofmap.index_map.size_local
-        with x.localForm() as xl:
-            values = xl.array_r.reshape(-1, 2)[:n_owned].copy()
-        return self.node_key[:n_owned].copy(), values
-
+    # ------------------------------------------------------------------ node keys
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the
         :attr:`output_mesh` points a and b (n,)."""
         n = self._output_mesh.n_points
         return n + np.minimum(a, b) * n + np.maximum(a, b)
-
-    def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
-        """Inverse of :meth:`get_state` for the full set of keys (any partition)."""
-        with x.localForm() as xl:
-            xl.array[:] = post.values_by_key(keys, values, self.node_key).ravel()
 
     # ------------------------------------------------------------------ output
     @property

@@ -1,4 +1,4 @@
-"""Output of a load path: summary.json, CSV, XDMF and PNG pictures.
+"""File writers of a run: JSON, CSV, NPZ and PNG pictures.
 
 Every file is written to a temporary name and renamed into place, so a run that is
 interrupted never leaves a half-written file behind. Only rank 0 writes JSON/CSV/PNG.
@@ -33,22 +33,6 @@ def write_npz(path: pathlib.Path, **arrays) -> None:
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez(tmp, **arrays)
     os.replace(tmp, path)
-
-
-def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:
-    """Rows of ``values`` whose ``keys`` are ``wanted`` (checkpoint state -> local nodes).
-
-    Raises
-    ------
-    ValueError
-        If a wanted key is missing (the state belongs to another mesh).
-    """
-    order = np.argsort(keys)
-    pos = np.searchsorted(keys, wanted, sorter=order)
-    found = order[np.minimum(pos, keys.size - 1)]
-    if keys.size == 0 or not np.array_equal(keys[found], wanted):
-        raise ValueError("the saved state does not belong to this mesh (node keys differ)")
-    return values[found]
 
 
 def write_json(path: pathlib.Path, data: typing.Mapping) -> None:

@@ -13,9 +13,8 @@ Example
 """
 from __future__ import annotations
 
-import json
+import functools
 import pathlib
-import signal
 import time
 import typing
 from dataclasses import asdict, dataclass
@@ -25,19 +24,13 @@ import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import _compat, post
+from . import post
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
+from .interrupt import StopRequest
 from .polygon_mesh import PolygonMesh
-from .run_summary import RUNNING, STOPPED_BY_SIGNAL
-from .solver import LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
-
-if typing.TYPE_CHECKING:
-    from .refine import Refinement
-
-CHECKPOINT = "checkpoint.npz"
-#: first bytes of every HDF5 file (its superblock signature)
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+from .run_output import STOPPED_BY_SIGNAL, RunWriter, progress_line, read_checkpoint
+from .solver import Attempt, LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 #: an observer returns one number, or several named ones
@@ -136,7 +129,7 @@ class ContactProblem:
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
     method
         ``"vem"`` (order-2 SFVEM on the polygons) or ``"fem"`` (P2 Lagrange triangles on the
-        same geometry and regions, :class:`~dolfinx_sfvem.fem.P2Discretization`).
+        same geometry and regions, :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`).
     comm
         MPI communicator.
     overlap_tolerance
@@ -163,14 +156,15 @@ class ContactProblem:
             from .vem import SFVEMDiscretization
             self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
         else:
-            from .fem import P2Discretization
-            self.disc = P2Discretization.from_polygon_mesh(mesh, self.materials, comm, **options)
+            from .fem import LagrangeDiscretization
+            self.disc = LagrangeDiscretization.from_polygon_mesh(mesh, self.materials, comm, **options)
         self.boundary = SolidBoundary(self.disc.output_mesh,
                                       [tag for tag, energy in self.materials.items() if not energy.is_medium],
                                       self.disc.midpoint_keys, overlap_tolerance)
         self.bcs: list[BoundaryCondition] = []
         self.f_ext = None
         self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
+        self._attempt_contact: tuple[Gap, ContactPressure] | None = None   # of the last converged attempt
         self.x = self.disc.create_vector()
         self.x.set(0.0)
         self._solved = False
@@ -211,7 +205,8 @@ class ContactProblem:
         return bc
 
     def _constraints(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """Constrained mask (local), final values of owned constrained unknowns, dofs per BC."""
+        """The constrained unknowns (k,) (local, sorted), the values at load factor 1 of the owned
+        ones (in their order) and the unknowns of every condition."""
         n_local = self.disc.n_local_dofs
         by = np.full(n_local, -1)                  # index of the condition that set each unknown
         final = np.zeros(n_local)
@@ -227,9 +222,8 @@ class ContactProblem:
             dofs_of[bc.name] = np.concatenate(all_dofs)
             if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
                 raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
-        constrained = by >= 0
-        owned = np.flatnonzero(constrained[:self.disc.n_owned_dofs])
-        return constrained, final[owned], dofs_of
+        owned = np.flatnonzero(by[:self.disc.n_owned_dofs] >= 0)
+        return np.flatnonzero(by >= 0), final[owned], dofs_of
 
     def _check_agreement(self, by: np.ndarray, final: np.ndarray, dofs: np.ndarray, values: np.ndarray,
                          k: int) -> None:
@@ -405,83 +399,75 @@ class ContactProblem:
         self._solved = True
         t_start = time.perf_counter()
         constrained, final, dofs_of = self._constraints()
+        self.disc.set_constraints(constrained)
         self._check_initial_state()
-        newton = NewtonSolver(self.disc, constrained, petsc_options, self.f_ext)
+        newton = NewtonSolver(self.disc, petsc_options, self.f_ext)
         stepper = LoadStepper(steps, min_increment=min_increment)
         records: list[dict] = []
         if resume:
             if out is None:
                 raise ValueError("resume needs the output directory of the stopped run")
             records = self._restore_checkpoint(pathlib.Path(out), stepper, steps)
-        writer = _RunWriter(self, out, stepper, append=resume) if out is not None else None
+        writer = RunWriter(self, out, stepper, append=resume) if out is not None else None
         observers = dict(observers or {})
-
-        contact: list[tuple[Gap, ContactPressure]] = []        # of the last converged state
-
-        def solve_to(load: float) -> NewtonResult:
-            result = newton.solve(self.x, load * final, load)
-            if result.converged:
-                contact[:] = [self._contact()]
-                gap = contact[0][0]
-                if gap.overlapping:
-                    result.converged = False
-                    result.failure = (f"solids overlap: {gap.describe()} (more than {self.boundary.tolerance:g} "
-                                      "times the local edge length)")
-            return result
-
-        def save():
-            return self.x.copy()
-
-        def restore(state):
-            state.copy(self.x)
-            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            state.destroy()
-
-        def record(load: float, res: NewtonResult, elapsed: float, converged: bool) -> StepRecord:
-            return StepRecord(step=sum(r["converged"] for r in records) + int(converged), load=load,
-                              newton_iterations=res.iterations, residual_norms=res.residual_norms,
-                              converged=converged, min_J=res.min_J, kinked_elements=res.kinked, failure=res.failure,
-                              wall_time_s=elapsed)
-
-        def on_step(load: float, res: NewtonResult, elapsed: float) -> None:
-            rec = record(load, res, elapsed, True)
-            gap, pressure = contact[0]
-            rec.gap = gap.as_dict()
-            rec.contact = [pair.as_dict() for pair in pressure.pairs]
-            rec.reaction = self.reactions(dofs_of, load)
-            rec.max_displacement = self.max_displacement()
-            rec.extra = _observe(self, observers)
-            records.append(asdict(rec))
-            self._progress(rec)
-            if writer is not None:
-                writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time)
-
-        def on_failure(load: float, res: NewtonResult, elapsed: float) -> None:
-            rec = record(load, res, elapsed, False)
-            records.append(asdict(rec))
-            if self.verbose and self.comm.rank == 0:
-                print(f"  step to load {load:.5g} failed ({res.failure}; {res.iterations} its); "
-                      "cutting the increment", flush=True)
-
-        stop = _StopRequest()
-        message, load = "", stepper.load
-        with stop:
+        message = ""
+        with StopRequest() as stop:
             try:
-                # collective: ranks may receive a signal at slightly different times
-                load = stepper.run(solve_to, save, restore, on_step, on_failure,
-                                   should_stop=lambda: self.comm.allreduce(stop.signalled, op=MPI.MAX) > 0)
+                for attempt in stepper.attempts(functools.partial(self._solve_to, newton, final), self.x):
+                    rec = self._record(attempt, sum(r["converged"] for r in records) + attempt.converged,
+                                       dofs_of, observers)
+                    records.append(asdict(rec))
+                    if attempt.converged:
+                        self._progress(rec)
+                        if writer is not None:
+                            writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time)
+                    elif self.verbose and self.comm.rank == 0:
+                        print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; {rec.newton_iterations} "
+                              "its); cutting the increment", flush=True)
+                    if stop.requested(self.comm):
+                        break
             except SolveFailed as err:
                 n_done = sum(r["converged"] for r in records)
                 message = f"step {n_done + 1}: {err}"
                 err.args = (message,)
-                load = max([r["load"] for r in records if r["converged"]], default=0.0)
                 if raise_on_failure:
-                    self._finish(writer, records, t_start, load, message)
+                    self._finish(writer, records, t_start, stepper.load, message)
                     raise
-        signalled = self.comm.allreduce(stop.signalled, op=MPI.MAX)
+        signalled = stop.requested(self.comm)
         if signalled:
-            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {load:.6g}"
-        return self._finish(writer, records, t_start, load, message)
+            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {stepper.load:.6g}"
+        return self._finish(writer, records, t_start, stepper.load, message)
+
+    def _solve_to(self, newton: NewtonSolver, final: np.ndarray, load: float) -> NewtonResult:
+        """Newton's solve for the load factor ``load`` (constrained values ``load * final``); a
+        converged state whose solids overlap is rejected. Keeps the converged state's contact
+        quantities for :meth:`_record`."""
+        result = newton.solve(self.x, load * final, load)
+        if result.converged:
+            self._attempt_contact = self._contact()
+            gap = self._attempt_contact[0]
+            if gap.overlapping:
+                result.converged = False
+                result.failure = (f"solids overlap: {gap.describe()} (more than {self.boundary.tolerance:g} "
+                                  "times the local edge length)")
+        return result
+
+    def _record(self, attempt: Attempt, step: int, dofs_of: dict[str, np.ndarray],
+                observers: typing.Mapping[str, Observer]) -> StepRecord:
+        """The record of an attempt; a converged one with its gap, contact pressure, reactions,
+        largest displacement and the observers' values (collective)."""
+        res = attempt.result
+        rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
+                         residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
+                         kinked_elements=res.kinked, failure=res.failure, wall_time_s=attempt.wall_time_s)
+        if attempt.converged:
+            gap, pressure = self._attempt_contact
+            rec.gap = gap.as_dict()
+            rec.contact = [pair.as_dict() for pair in pressure.pairs]
+            rec.reaction = self.reactions(dofs_of, attempt.load)
+            rec.max_displacement = self.max_displacement()
+            rec.extra = _observe(self, observers)
+        return rec
 
     def _check_initial_state(self) -> None:
         """Reject a starting state with J <= 0 (inverted elements), folded elements, a non-finite
@@ -499,32 +485,20 @@ class ContactProblem:
             raise ValueError(f"the solids overlap in the initial configuration: {gap.describe()}")
 
     def _restore_checkpoint(self, out: pathlib.Path, stepper: LoadStepper, steps: int) -> list[dict]:
-        """Load state, stepper state and converged records of a stopped run."""
-        path = out / CHECKPOINT
-        if not path.exists():
-            raise ValueError(f"cannot resume: {path} does not exist")
-        data = np.load(path)
-        if int(data["steps"]) != steps:
-            raise ValueError(f"cannot resume: the stopped run used {int(data['steps'])} steps, not {steps}")
-        with open(out / "summary.json") as f:
-            previous = json.load(f)
-        differences = _differences(_identity(previous), _identity(self.summary([], 0.0, False)))
-        if differences:
-            raise ValueError(f"cannot resume the run in {out}: it solved another problem ({'; '.join(differences)}); "
-                             "resuming continues the same problem only, start a new run (another output "
-                             "directory) to change it")
-        self.disc.set_state(data["keys"], data["values"], self.x)
+        """Load state, stepper state and converged records of the stopped run in ``out``."""
+        saved = read_checkpoint(out, steps, self.summary([], 0.0, False))
+        self.disc.set_state(saved.keys, saved.values, self.x)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        stepper.restore({k: float(data[k]) for k in ("load", "increment", "streak")})
-        records = [r for r in previous["steps"] if r["converged"]]
-        earlier = previous.get("wall_time_s")
-        self._earlier_wall_time = float(earlier) if isinstance(earlier, (int, float)) and np.isfinite(earlier) else 0.0
-        records = [r for r in records if r["load"] <= stepper.load + 1e-14]
+        stepper.restore(saved.stepper)
+        self._earlier_wall_time = saved.wall_time_s
+        records = [r for r in saved.records if r["load"] <= stepper.load + 1e-14]
         if self.comm.rank == 0 and self.verbose:
             print(f"resuming from load factor {stepper.load:.6g} after {len(records)} converged steps", flush=True)
         return records
 
-    def _finish(self, writer, records, t_start, load, message) -> Result:
+    def _finish(self, writer: RunWriter | None, records: list[dict], t_start: float, load: float,
+                message: str) -> Result:
+        """Write the final outputs and return the result of a run that reached ``load``."""
         wall = time.perf_counter() - t_start + self._earlier_wall_time
         converged = load >= 1.0 - 1e-12 and not message
         summary = self.summary(records, wall, converged, message)
@@ -555,150 +529,6 @@ class ContactProblem:
         }
 
     def _progress(self, rec: StepRecord) -> None:
-        """One line per converged step: Newton, J, gap, time and the first prescribed condition's
-        reaction (the full record is in summary.json and load_path.csv)."""
-        if not (self.verbose and self.comm.rank == 0):
-            return
-        res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
-        gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
-        kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
-        loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
-        reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
-        print(f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-              f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s{reaction}", flush=True)
-
-
-class _StopRequest:
-    """Context manager turning SIGINT/SIGTERM into a request to stop after the current step."""
-
-    def __init__(self):
-        self.signalled = 0
-        self._old = {}
-
-    def _handler(self, signum, frame):
-        self.signalled = signum
-
-    def __enter__(self):
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            try:
-                self._old[sig] = signal.signal(sig, self._handler)
-            except ValueError:          # not in the main thread
-                pass
-        return self
-
-    def __exit__(self, *exc):
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
-        return False
-
-
-#: summary.json entries that may differ between a stopped run and its resumption
-_RUN_ENTRIES = ("wall_time_s", "converged", "message", "steps", "ranks")
-
-
-def _identity(summary: typing.Mapping[str, typing.Any]) -> dict[str, typing.Any]:
-    """What identifies the problem of a summary (everything but the run's progress and the
-    PETSc options), flattened to ``{"parameters.uy": -0.3, ...}`` and normalised through JSON."""
-    data = json.loads(json.dumps({k: v for k, v in summary.items() if k not in _RUN_ENTRIES},
-                                 default=post.json_default))
-    data.get("parameters", {}).pop("petsc_options", None)
-    flat: dict[str, typing.Any] = {}
-
-    def walk(prefix: str, value: typing.Any) -> None:
-        if isinstance(value, dict):
-            for k, v in value.items():
-                walk(f"{prefix}.{k}" if prefix else str(k), v)
-        else:
-            flat[prefix] = value
-    walk("", data)
-    return flat
-
-
-def _differences(saved: typing.Mapping[str, typing.Any], now: typing.Mapping[str, typing.Any]) -> list[str]:
-    """``"name: saved A, now B"`` for every entry that differs."""
-    return [f"{k}: saved {saved.get(k, 'nothing')!r}, now {now.get(k, 'nothing')!r}"
-            for k in sorted(set(saved) | set(now)) if saved.get(k) != now.get(k)]
-
-
-def _first_bytes(path: pathlib.Path, n: int) -> bytes:
-    with open(path, "rb") as f:
-        return f.read(n)
-
-
-class _RunWriter:
-    """Writes the outputs of a run as it goes (every converged step)."""
-
-    def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
-                 append: bool = False):
-        import dolfinx.fem
-        self.problem = problem
-        self.stepper = stepper
-        self.out = pathlib.Path(out)
-        if problem.comm.rank == 0:
-            self.out.mkdir(parents=True, exist_ok=True)
-        problem.comm.barrier()
-        mesh = problem.disc.dolfinx_mesh
-        self.u_p2 = None
-        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(mesh, 1), name="u")
-        self.xdmf_path = self.out / "displacement.xdmf"
-        self.xdmf_started = append and self._readable_xdmf()
-
-    def _readable_xdmf(self) -> bool:
-        """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed
-        run left behind (HDF5 superblock missing) is renamed ``*.broken`` and a new series begins."""
-        comm = self.problem.comm
-        h5 = self.xdmf_path.with_suffix(".h5")
-        ok = None
-        if comm.rank == 0:
-            ok = self.xdmf_path.exists() and h5.exists() and _first_bytes(h5, 8) == HDF5_SIGNATURE
-            if not ok:
-                for path in (self.xdmf_path, h5):
-                    if path.exists():
-                        path.replace(path.with_name(path.name + ".broken"))
-                        print(f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
-                              "the displacement series starts again", flush=True)
-        return comm.bcast(ok, root=0)
-
-    def _write_xdmf(self, load: float) -> None:
-        """Append one time step; the file is opened and closed around it, so a run killed
-        between steps leaves a readable series."""
-        import dolfinx.io
-        with dolfinx.io.XDMFFile(self.problem.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
-            if not self.xdmf_started:
-                f.write_mesh(self.problem.disc.dolfinx_mesh)
-            f.write_function(self.u_p1, load)
-        self.xdmf_started = True
-
-    def step(self, records: list[dict], wall: float) -> None:
-        """Write the converged step ``records[-1]``: XDMF, checkpoint, a summary marked running
-        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv."""
-        p = self.problem
-        self.u_p2 = p.disc.output_function(p.x, self.u_p2)
-        self.u_p1.interpolate(self.u_p2)
-        self._write_xdmf(records[-1]["load"])
-        partial = p.summary(records, wall, False, RUNNING)
-        keys, values = p.disc.get_state(p.x)
-        pieces = p.comm.gather((keys, values), root=0)
-        if p.comm.rank == 0:
-            keys = np.concatenate([k for k, _ in pieces])
-            values = np.concatenate([v for _, v in pieces])
-            order = np.argsort(keys)
-            post.write_npz(self.out / CHECKPOINT, keys=keys[order], values=values[order],
-                           steps=round(1 / self.stepper.nominal), **self.stepper.state())
-            post.write_json(self.out / "summary.json", partial)
-            post.write_load_path_csv(self.out / "load_path.csv", records)
-
-    def finish(self, summary: dict) -> None:
-        p = self.problem
-        u = p.point_displacements()
-        pressure = p.contact_pressure()
-        if p.comm.rank == 0:
-            post.write_json(self.out / "summary.json", summary)
-            post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
-            load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
-            post.plot_deformed_polygons(self.out / "deformed.png", p.disc.output_mesh, u,
-                                        title=f"{p.method}: load factor {load:.3g}")
-            post.plot_deformed_polygons(self.out / "uy.png", p.disc.output_mesh, u, node_values=u[:, 1],
-                                        title="u_y")
-            post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
-                                       title=f"{p.method}: contact pressure at load factor {load:.3g}")
+        """The progress line of a converged step (:func:`~dolfinx_sfvem.run_output.progress_line`)."""
+        if self.verbose and self.comm.rank == 0:
+            print(progress_line(rec), flush=True)

@@ -1,10 +1,10 @@
 """Newton's method through PETSc SNES, and load stepping with automatic cut-back.
 
-Dirichlet conditions enter through the Newton update (docs/method.md §6): the rows of the
-constrained unknowns are identity rows of the tangent and their residual is
-``x - g``, so the first Newton step of a load step moves them to their new values
-``g`` and the rest of the tangent (columns kept) carries the consistent response.
-The state is never overwritten with the new boundary values before a solve.
+Dirichlet conditions enter through the Newton update (docs/method.md §6), by the constraints
+registered on the discretization (:class:`~dolfinx_sfvem.discretization.Constraints`): the
+first Newton step of a load step moves the constrained unknowns to their new values ``g``
+and the free rows of the tangent carry the consistent response. The state is never
+overwritten with the new boundary values before a solve.
 
 Default line search: ``l2`` (docs/method.md §6); every option can be changed on the command
 line or from Python.
@@ -33,6 +33,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
+from .discretization import AssemblyInfo, Discretization
 
 DEFAULT_PETSC_OPTIONS: dict[str, str] = {
     "snes_type": "newtonls",
@@ -110,17 +111,6 @@ def _is_number(s: str) -> bool:
         return False
 
 
-class Discretization(typing.Protocol):
-    """What the solver needs from a discretization (SFVEM or FEM)."""
-
-    comm: MPI.Comm
-
-    def create_vector(self) -> PETSc.Vec: ...
-    def create_matrix(self) -> PETSc.Mat: ...
-    def residual(self, x: PETSc.Vec, b: PETSc.Vec): ...          # returns AssemblyInfo
-    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None: ...
-
-
 class SolveFailed(RuntimeError):
     """A load step could not be solved even with the smallest allowed increment."""
 
@@ -158,7 +148,7 @@ def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -
                    "(docs/gamma-1e-6.md)")
 
 
-def _failure(reason: int, info, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
+def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
     state with diagnostics ``info`` is rejected."""
     why = []
@@ -184,9 +174,8 @@ class NewtonSolver:
     Parameters
     ----------
     disc
-        The discretization.
-    constrained : (n_local_unknowns,) bool
-        Constrained unknowns (local numbering incl. ghosts, consistent across ranks).
+        The discretization, its constraints registered (:meth:`Discretization.set_constraints`)
+        before :meth:`solve`.
     options
         PETSc options for this solver (override defaults and the command line). Without
         ``snes_atol`` (here or on the command line) the absolute tolerance follows the
@@ -195,15 +184,11 @@ class NewtonSolver:
         External force vector at load factor 1 (scaled by the load factor of each solve).
     """
 
-    def __init__(self, disc: Discretization, constrained: np.ndarray,
-                 options: typing.Mapping[str, typing.Any] | None = None, f_ext: PETSc.Vec | None = None):
+    def __init__(self, disc: Discretization, options: typing.Mapping[str, typing.Any] | None = None,
+                 f_ext: PETSc.Vec | None = None):
         self.disc = disc
         self.comm = disc.comm
-        self.constrained = constrained
-        n_owned = disc.n_owned_dofs
-        self._owned_constrained = np.flatnonzero(constrained[:n_owned])
-        self._owned_free = np.flatnonzero(~constrained[:n_owned])
-        self.g = np.zeros(self._owned_constrained.size)
+        self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self.f_ext = f_ext
         self._f_ext_norm = f_ext.norm(PETSc.NormType.INFINITY) if f_ext is not None else 0.0
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the first tangent of the current solve
@@ -229,16 +214,13 @@ class NewtonSolver:
             self.worst_info = info
         if self.f_ext is not None:
             b.axpy(-self.load, self.f_ext)
-        with x.localForm() as xl:
-            xc = xl.array_r[self._owned_constrained]
-        b_arr = b.getArray()
-        b_arr[self._owned_constrained] = xc - self.g
+        self.disc.constraints.set_residual_rows(x, b, self.g)
         if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self.disc.jacobian(x, A, self.constrained)
+        self.disc.jacobian(x, A)
         if self.scaled_atol:
             if not self._stiffness_current:
                 self._stiffness = self._free_row_norm(A)
@@ -250,7 +232,8 @@ class NewtonSolver:
         indptr, _, values = A.getValuesCSR()
         rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
         sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
-        return self.comm.allreduce(float(sums[self._owned_free].max(initial=0.0)), op=MPI.MAX)
+        free = self.disc.constraints.owned_free
+        return self.comm.allreduce(float(sums[free].max(initial=0.0)), op=MPI.MAX)
 
     def absolute_tolerance(self, x: PETSc.Vec) -> float:
         """The default absolute tolerance at the state x (collective).
@@ -265,9 +248,9 @@ class NewtonSolver:
         return ATOL_ROUNDOFF_FACTOR * float(np.finfo(np.float64).eps) * force
 
     def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
-        """Solve from the state ``x`` (updated in place) with constrained values ``g`` (owned)
-        and the external force scaled by ``load``."""
-        self.g[:] = g
+        """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
+        constrained unknowns (``disc.constraints.owned``) and the external force scaled by ``load``."""
+        self.g = np.asarray(g, dtype=np.float64)
         self.load = load
         self.history = []
         self.worst_info = None
@@ -286,6 +269,18 @@ class NewtonSolver:
                                          atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure)
+
+
+@dataclass
+class Attempt:
+    """One attempted load step of :meth:`LoadStepper.attempts`."""
+    load: float                 # the load factor aimed at
+    result: NewtonResult
+    wall_time_s: float          # of the Newton solve
+
+    @property
+    def converged(self) -> bool:
+        return self.result.converged
 
 
 @dataclass
@@ -315,7 +310,7 @@ class LoadStepper:
     converged state with half the increment, down to ``min_increment``; after
     ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
     the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
-    raised; every converged step has already been handed to ``on_step``. The stepper's
+    raised; every attempt has already been yielded by :meth:`attempts`. The stepper's
     own state (:meth:`state`) is what a checkpoint needs to continue exactly.
     """
 
@@ -337,17 +332,21 @@ class LoadStepper:
     def restore(self, state: typing.Mapping[str, float]) -> None:
         self.load, self.increment, self.streak = float(state["load"]), float(state["increment"]), int(state["streak"])
 
-    def run(self, solve_to: typing.Callable[[float], NewtonResult], save: typing.Callable[[], typing.Any],
-            restore: typing.Callable[[typing.Any], None],
-            on_step: typing.Callable[[float, NewtonResult, float], None],
-            on_failure: typing.Callable[[float, NewtonResult, float], None] | None = None,
-            should_stop: typing.Callable[[], bool] = lambda: False) -> float:
-        """Run the load path from the current state; returns the load factor reached (1.0 on success)."""
+    def attempts(self, solve_to: typing.Callable[[float], NewtonResult], x: PETSc.Vec) -> typing.Iterator[Attempt]:
+        """Run the load path from the state ``x``, yielding every attempted step.
+
+        ``solve_to(load)`` solves for the load factor ``load`` from ``x`` (updated in place). A
+        converged attempt is yielded after the stepper has moved to its load; a failed one after
+        ``x`` is back at the last converged state and the increment is halved. The caller may stop
+        after any attempt (``break``): the stepper and ``x`` are then at the last converged step.
+        Raises :class:`SolveFailed` after yielding an attempt that failed with the smallest
+        increment.
+        """
         for _ in range(self.max_attempts):
-            if self.load >= 1.0 - 1e-12 or should_stop():
-                return self.load
+            if self.load >= 1.0 - 1e-12:
+                return
             target = min(self.load + self.increment, 1.0)
-            state = save()
+            saved = x.copy()
             t0 = time.perf_counter()
             result = solve_to(target)
             elapsed = time.perf_counter() - t0
@@ -356,18 +355,20 @@ class LoadStepper:
                 self.streak += 1
                 if self.increment < self.nominal and self.streak >= self.grow_after:
                     self.increment, self.streak = min(2 * self.increment, self.nominal), 0
-                on_step(target, result, elapsed)
-                continue
-            restore(state)
-            if on_failure is not None:
-                on_failure(target, result, elapsed)
-            self.streak = 0
-            if self.increment / 2 < self.min_increment * (1 - 1e-12):
+            else:
+                saved.copy(x)
+                x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                self.streak = 0
+            saved.destroy()
+            smallest = not result.converged and self.increment / 2 < self.min_increment * (1 - 1e-12)
+            if not (result.converged or smallest):
+                self.increment /= 2
+            yield Attempt(target, result, elapsed)
+            if smallest:
                 raise SolveFailed(
                     f"load step to load factor {target:.6g} failed with the smallest increment "
                     f"{self.increment:.3g} ({result.failure}; {result.iterations} Newton iterations, "
                     f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
                     f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
                     f"last converged load factor {self.load:.6g}")
-            self.increment /= 2
         raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {self.load:.6g})")

@@ -15,15 +15,16 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import _compat, post
-from .assemble import basis_derivative_tables, coo_pattern, load_loop, projected_fields, residual_loop, tangent_loop
+from . import _compat
+from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, load_loop, projected_fields,
+                       residual_loop, tangent_loop)
+from .discretization import AssemblyInfo, Discretization, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
 from .compiled_energy import EnergyKernels, compile_kernels
 from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .space import VERTEX, VEMSpace
-
 
 
 def _residual_at(k: EnergyKernels) -> tuple[int, int]:
@@ -45,59 +46,7 @@ class _Region:
     polygons: np.ndarray     # local polygon indices (int64)
 
 
-@dataclass
-class AssemblyInfo:
-    """Diagnostics of one residual evaluation (global over ranks).
-
-    Attributes
-    ----------
-    energy : float
-        Total stored energy ∫ Ψ dΩ (Eq. 46).
-    min_J : float
-        Smallest J = det F over all quadrature points.
-    min_J_polygon : int
-        Global index of the polygon where it occurs.
-    min_J_tag : int
-        Its region tag.
-    folded : int
-        Number of folded elements (:mod:`~dolfinx_sfvem.injectivity`): deformed boundary
-        through vertices and edge midpoints turned over or crossing itself.
-    folded_polygon : int
-        Global index of one of them (-1 if none).
-    kinked : int
-        Number of kinked solid elements (boundary crossing itself, orientation kept): reported,
-        not rejected.
-    """
-    energy: float
-    min_J: float
-    min_J_polygon: int
-    min_J_tag: int
-    folded: int = 0
-    folded_polygon: int = -1
-    kinked: int = 0
-
-    @property
-    def admissible(self) -> bool:
-        """J > 0 at every quadrature point, no folded element and a finite energy."""
-        return self.min_J > 0.0 and self.folded == 0 and bool(np.isfinite(self.energy))
-
-
-def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) -> None:
-    """Every region tag of the mesh has an energy, and every energy's tag exists."""
-    present = set(np.unique(tags).tolist())
-    missing = sorted(present - set(materials))
-    if missing:
-        raise ValueError(f"no material given for region tag(s) {missing}; mesh tags are {sorted(present)}")
-    unknown = sorted(set(materials) - present)
-    if unknown:
-        raise ValueError(f"material given for region tag(s) {unknown} that the mesh does not have; "
-                         f"mesh tags are {sorted(present)}")
-    for tag, energy in materials.items():
-        if not isinstance(energy, Energy):
-            raise ValueError(f"material of region {tag} must be an Energy, got {type(energy).__name__}")
-
-
-class SFVEMDiscretization:
+class SFVEMDiscretization(Discretization):
     """Order-2 SFVEM discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ on a polygon mesh.
 
     Parameters
@@ -134,11 +83,10 @@ class SFVEMDiscretization:
         phi_off = np.concatenate([[0], np.cumsum(nphi * nd * np.diff(space.q_offsets))]).astype(np.int64)
         Phi = basis_derivative_tables(space.dof_offsets, proj.l, proj.centroid, proj.diameter,
                                       proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, nphi, phi_off)
-        self._geometry = (space.dof_offsets, space.dofs, phi_off, Phi, space.q_offsets, space.w_q)
+        self._tables = PolygonTables(space.dof_offsets, space.dofs, phi_off, Phi, space.q_offsets, space.w_q)
         self._coo_off = np.concatenate([[0], np.cumsum(4 * nd * nd)]).astype(np.int64)
         self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
-        self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)
-        self._constrained_key, self._constrained_at = None, None   # :meth:`_constrained_entries`
+        self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)     # the diagonal's entries stay 0
         # boundary loop v_0, m_0, v_1, m_1, ... of every polygon (injectivity guard)
         N = (nd - 1) // 2
         self._loop_offsets = np.concatenate([[0], np.cumsum(2 * N)]).astype(np.int64)
@@ -154,7 +102,7 @@ class SFVEMDiscretization:
         return self.space.create_vector()
 
     def create_matrix(self) -> PETSc.Mat:
-        """AIJ matrix with the COO pattern: polygon blocks, then the owned diagonal."""
+        """AIJ matrix with the COO pattern: polygon blocks, then the owned diagonal (zero entries)."""
         space = self.space
         n_owned, n_global = 2 * space.n_owned_nodes, space.num_dofs_global
         A = PETSc.Mat().create(self.comm)
@@ -165,15 +113,9 @@ class SFVEMDiscretization:
         start = 2 * space.index_map.local_range[0]
         diagonal = np.arange(start, start + n_owned, dtype=np.int32)
         _compat.mat_set_preallocation_coo(A, np.concatenate([rows, diagonal]), np.concatenate([cols, diagonal]))
-        self._local_rows = self._local_row_of_coo(rows)
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         return A
-
-    def _local_row_of_coo(self, rows_global: np.ndarray) -> np.ndarray:
-        """Local (blocked) unknown index of every COO entry's row."""
-        order = np.argsort(self._global_node)
-        node = order[np.searchsorted(self._global_node[order], rows_global // 2)]
-        return 2 * node + rows_global % 2
 
     # ------------------------------------------------------------------ assembly
     def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
@@ -202,7 +144,7 @@ class SFVEMDiscretization:
                 P_at, T_at = _residual_at(k)
                 c = k.pack_constants(reg.energy.params)
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
-                              *self._geometry, u, R, stats)
+                              self._tables, u, R, stats)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return stats
 
@@ -217,14 +159,8 @@ class SFVEMDiscretization:
                             *gather_count(self.comm, folded, self.space.polygons),
                             gather_count(self.comm, kinked, self.space.polygons)[0])
 
-    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat, constrained: np.ndarray) -> None:
-        """Tangent (Eq. 56) at x into A; rows of constrained unknowns become identity rows.
-
-        Parameters
-        ----------
-        constrained : (2 n_local_nodes,) bool
-            Constrained unknowns in local (blocked) numbering, consistent across ranks.
-        """
+    def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """Tangent (Eq. 56) at x into A, constraints not applied."""
         values = self._values
         with x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)
@@ -233,20 +169,9 @@ class SFVEMDiscretization:
                 D_at, A_at, B_at = _tangent_at(k)
                 c = k.pack_constants(reg.energy.params)
                 tangent_loop(k.tangent, c, k.F_offset, k.G_offset, D_at, A_at, B_at, k.uses_gradient,
-                             reg.polygons, *self._geometry, u, values, self._coo_off)
-        n_blocks = self._coo_off[-1]
-        values[self._constrained_entries(constrained)] = 0.0
-        values[n_blocks:] = constrained[:2 * self.space.n_owned_nodes]
+                             reg.polygons, self._tables, u, values, self._coo_off)
         _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
         A.assemble()
-
-    def _constrained_entries(self, constrained: np.ndarray) -> np.ndarray:
-        """Positions of the COO block entries in constrained rows (cached per constrained set)."""
-        key = constrained.tobytes()
-        if self._constrained_key != key:
-            self._constrained_key = key
-            self._constrained_at = np.flatnonzero(constrained[self._local_rows])
-        return self._constrained_at
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
@@ -270,8 +195,9 @@ class SFVEMDiscretization:
         F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return F
 
-    def fields_at_quadrature(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """Π^∇_2 u (n_q, 2) and Π⁰_l∇u (n_q, 2, 2) at the local quadrature points ``space.x_q``."""
+    def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Points x_q (n_q, 2) and weights (n_q,) of the energy quadrature with Π^∇_2 u (n_q, 2) and
+        Π⁰_l∇u (n_q, 2, 2) there (Eqs. 36, 45): the fields of :meth:`error_norms`."""
         space = self.space
         proj = space.projections
         u_q = np.empty((space.x_q.shape[0], 2))
@@ -280,40 +206,28 @@ class SFVEMDiscretization:
             projected_fields(np.arange(space.polygons.size), space.dof_offsets, space.dofs, proj.l, proj.centroid,
                              proj.diameter, proj.Pi_m_offsets, proj.Pi_m, proj.Pi_nabla_offsets, proj.Pi_nabla,
                              space.q_offsets, space.x_q, xl.array_r.reshape(-1, 2), u_q, grad_q)
-        return u_q, grad_q
-
-    def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
-                    grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
-        """‖u − Π^∇_2 u_h‖_L2 and |u − u_h|_H1 := ‖∇u − Π⁰_l∇u_h‖_L2 over the whole mesh (collective).
-
-        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
-        """
-        u_q, grad_q = self.fields_at_quadrature(x)
-        X = self.space.x_q.T
-        w = self.space.w_q
-        e0 = np.sum(w * np.sum((np.asarray(u_exact(X)).T - u_q) ** 2, axis=1))
-        e1 = np.sum(w * np.sum((np.moveaxis(np.asarray(grad_exact(X)), -1, 0) - grad_q) ** 2, axis=(1, 2)))
-        return (float(np.sqrt(self.comm.allreduce(e0, op=MPI.SUM))),
-                float(np.sqrt(self.comm.allreduce(e1, op=MPI.SUM))))
+        return space.x_q, space.w_q, u_q, grad_q
 
     # ------------------------------------------------------------------ locating unknowns
-    def locate_dofs(self, marker=None, tags=None, component: int | None = None) -> np.ndarray:
-        """Local blocked unknowns (owned and ghost) at the nodes selected by marker/tags.
-
-        ``component`` None selects both displacement components.
-        """
-        nodes = self.space.locate_nodes(marker, tags)
-        comps = (0, 1) if component is None else (component,)
-        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local SFVEM nodes selected by marker and/or tags (:meth:`VEMSpace.locate_nodes`)."""
+        return self.space.locate_nodes(marker, tags)
 
     @property
-    def n_owned_dofs(self) -> int:
-        return 2 * self.space.n_owned_nodes
+    def n_owned_nodes(self) -> int:
+        return self.space.n_owned_nodes
 
     @property
-    def n_local_dofs(self) -> int:
-        """Owned and ghost unknowns of this rank."""
-        return 2 * self.space.n_local_nodes
+    def n_local_nodes(self) -> int:
+        return self.space.n_local_nodes
+
+    @property
+    def x_nodes(self) -> np.ndarray:
+        return self.space.x_nodes
+
+    @property
+    def node_key(self) -> np.ndarray:
+        return self.space.node_key
 
     def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Π^∇_2 u (Eq. 36) at ``points`` (n, 2) inside this rank's polygons: (values (n, 2), found (n,)
@@ -334,10 +248,6 @@ class SFVEMDiscretization:
                 values[i] = (m @ proj.Pi_nabla_of(k)) @ u[space.polygon_dofs(k)]
         return values, k_of >= 0
 
-    def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
-        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
-        return self.space.x_nodes[dofs // 2]
-
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """DOF values of the function ``value(x) -> (n,)`` for one component at the unknowns ``dofs``:
         point values at vertices/midpoints, polygon means (by quadrature) at interior DOFs."""
@@ -353,18 +263,6 @@ class SFVEMDiscretization:
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the points a and b (n,)."""
         return self.space.polygon_mesh.n_points + self.space.edge_index(a, b)
-
-    def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2))."""
-        space = self.space
-        with x.localForm() as xl:
-            values = xl.array_r.reshape(-1, 2)[:space.n_owned_nodes].copy()
-        return space.node_key[:space.n_owned_nodes].copy(), values
-
-    def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
-        """Inverse of :meth:`get_state` for the full set of keys (any partition); ghosts updated."""
-        with x.localForm() as xl:
-            xl.array[:] = post.values_by_key(keys, values, self.space.node_key).ravel()
 
     @property
     def output_mesh(self) -> PolygonMesh:

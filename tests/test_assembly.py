@@ -126,7 +126,7 @@ def as_vector(disc: sf.SFVEMDiscretization, values: np.ndarray):
     return x
 
 
-def residual(disc: sf.SFVEMDiscretization, values: np.ndarray) -> tuple[np.ndarray, sf.vem.AssemblyInfo]:
+def residual(disc: sf.SFVEMDiscretization, values: np.ndarray) -> tuple[np.ndarray, sf.discretization.AssemblyInfo]:
     """Nodal residual (n_nodes, 2) (Eq. 52) and the assembly info (energy, Eq. 46)."""
     b = disc.create_vector()
     info = disc.residual(as_vector(disc, values), b)
@@ -140,7 +140,7 @@ def total_energy(disc: sf.SFVEMDiscretization, values: np.ndarray) -> float:
 def tangent(disc: sf.SFVEMDiscretization, values: np.ndarray) -> np.ndarray:
     """Dense tangent (Eq. 56), no constrained rows."""
     A = disc.create_matrix()
-    disc.jacobian(as_vector(disc, values), A, np.zeros(disc.n_local_dofs, dtype=bool))
+    disc.jacobian(as_vector(disc, values), A)
     return A.convert("dense").getDenseArray().copy()
 
 

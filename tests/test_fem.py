@@ -3,7 +3,7 @@
 - The tangent is the derivative of the residual and the residual the derivative of the
   reported energy (central differences), for the solid and every regularization of
   Table 1 with and without the exp(-βJ) scaling, on a two-region mesh.
-- Identity rows for constrained unknowns, columns kept (the convention of vem.py).
+- Identity rows for constrained unknowns, columns kept (discretization.Constraints).
 - Through ContactProblem(method="fem"): a homogeneous uniaxial-stress deformation is
   reproduced exactly and the reaction equals the exact traction resultant P(F)·N·H.
 - Manufactured small-strain solution: L2 error ~ h^3, H1 error ~ h^2, for P2 and Q2.
@@ -24,7 +24,7 @@ from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.energy import REGULARIZATIONS
-from dolfinx_sfvem.fem import P2Discretization
+from dolfinx_sfvem.fem import LagrangeDiscretization
 from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
 from dolfinx_sfvem.remesh import p2_unknowns, sfvem_unknowns, triangulate
 from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
@@ -89,12 +89,12 @@ def cells_of(kind: str) -> dict:
                             ("rotation", None, None, "quads"), ("huhu_lulu", 5.0, None, "quads"),
                             ("rotation", None, 40.0, "quads")])
 def test_tangent_and_residual_match_finite_differences(regularization, beta, jump_penalty, cells):
-    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium(regularization, beta)},
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium(regularization, beta)},
                                               jump_penalty=jump_penalty, verbose=False, **cells_of(cells))
     x, d = state(disc), direction(disc)
     b, _ = residual_at(disc, x, d, 0.0)
     A = disc.create_matrix()
-    disc.jacobian(x, A, np.zeros(disc.n_local_dofs, dtype=bool))
+    disc.jacobian(x, A)
     Ad = disc.create_vector()
     A.mult(d, Ad)
 
@@ -112,14 +112,15 @@ def test_tangent_and_residual_match_finite_differences(regularization, beta, jum
 
 @pytest.mark.mpi
 def test_constrained_rows_are_identity_rows_with_columns_kept():
-    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
                                               fem_h=0.35, verbose=False)
     x, d = state(disc), direction(disc)
     constrained = np.zeros(disc.n_local_dofs, dtype=bool)
     constrained[disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0), component=1)] = True
     A, A_c = disc.create_matrix(), disc.create_matrix()
-    disc.jacobian(x, A, np.zeros_like(constrained))
-    disc.jacobian(x, A_c, constrained)
+    disc.jacobian(x, A)
+    disc.set_constraints(np.flatnonzero(constrained))
+    disc.jacobian(x, A_c)
     y, y_c = disc.create_vector(), disc.create_vector()
     A.mult(d, y)
     A_c.mult(d, y_c)
@@ -140,7 +141,7 @@ def test_jump_penalty_acts_only_on_kinks_of_the_gradient():
     """The interior-penalty terms vanish for a field with continuous ∇u (a quadratic, which P2
     holds exactly) and add energy for one that kinks across the medium's interior facets."""
     materials = {1: SOLID, 2: medium("rotation", None)}
-    plain, penalised = (P2Discretization.from_polygon_mesh(two_regions(), materials, fem_h=0.35,
+    plain, penalised = (LagrangeDiscretization.from_polygon_mesh(two_regions(), materials, fem_h=0.35,
                                                            jump_penalty=eta, verbose=False) for eta in (None, 40.0))
     assert plain.describe()["jump_penalty"] is None and penalised.describe()["jump_penalty"] == 40.0
 
@@ -158,7 +159,7 @@ def test_jump_penalty_acts_only_on_kinks_of_the_gradient():
 
 def test_jump_penalty_must_be_positive():
     with pytest.raises(ValueError, match="jump_penalty"):
-        P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
+        LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
                                            jump_penalty=-1.0, verbose=False)
 
 
@@ -232,7 +233,7 @@ def test_matched_triangulation_matches_the_sfvem_unknowns():
     target = sf.VEMSpace(mesh, verbose=False).num_dofs_global
     assert sfvem_unknowns(mesh) == target
     materials = {1: SOLID, 2: medium("rotation", None)}
-    disc = P2Discretization.from_polygon_mesh(mesh, materials, verbose=False)
+    disc = LagrangeDiscretization.from_polygon_mesh(mesh, materials, verbose=False)
     assert disc.num_dofs_global == p2_unknowns(disc.output_mesh.vertices.reshape(-1, 3))
     assert abs(disc.num_dofs_global - target) <= MATCHED_UNKNOWNS_RTOL * target
     assert disc.describe()["mesh_size"] > 0
@@ -301,7 +302,7 @@ def test_manufactured_solution_rates(quads):
 def test_q2_node_keys_are_unique_and_name_their_place():
     """Q2 on a quadrilateral fem_mesh: one key per node over all ranks; a vertex node keys its
     output point, an edge node the midpoint of its two points, a centre node its cell."""
-    disc = P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
                                               fem_mesh=sf.meshes.glue(
                                                   sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, tag=1),
                                                   sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, origin=(1.0, 0.0), tag=2)),
@@ -334,11 +335,11 @@ def skewed_quads() -> sf.PolygonMesh:
 ])
 def test_fem_mesh_is_checked(mesh, fem_mesh, message):
     with pytest.raises(ValueError, match=message):
-        P2Discretization.from_polygon_mesh(mesh(), {1: SOLID, 2: medium("rotation", None)}, fem_mesh=fem_mesh(),
+        LagrangeDiscretization.from_polygon_mesh(mesh(), {1: SOLID, 2: medium("rotation", None)}, fem_mesh=fem_mesh(),
                                            verbose=False)
 
 
 def test_fem_h_and_fem_mesh_exclude_each_other():
     with pytest.raises(ValueError, match="not both"):
-        P2Discretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
+        LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
                                            fem_mesh=two_regions(), verbose=False)

@@ -1,0 +1,318 @@
+"""The contract every discretization (SFVEM, Lagrange FEM) fulfils, and what both share.
+
+:class:`Discretization` lists every member that :class:`~dolfinx_sfvem.ContactProblem`, the
+Newton solver, the run output and the contact checks use (docs/architecture.md). It also holds
+what is the same for both methods: the unknowns' layout, the key-based state transfer of
+checkpoints, the error norms and the Dirichlet constraints (:class:`Constraints`).
+
+Layout of the unknowns (both methods): PETSc vectors with block size 2, local index
+``2 * node + component``, nodes numbered owned first, then ghosts. A node's *key* is a
+partition-independent integer (the same node has the same key on any number of ranks), so a
+state saved on one partition can be read on another.
+"""
+from __future__ import annotations
+
+import abc
+import typing
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .energy import Energy
+from .polygon_mesh import PolygonMesh
+
+Marker = typing.Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class AssemblyInfo:
+    """Diagnostics of one residual evaluation (global over ranks).
+
+    Attributes
+    ----------
+    energy : float
+        Total stored energy ∫ Ψ dΩ (Eq. 46).
+    min_J : float
+        Smallest J = det F over all quadrature points.
+    min_J_polygon : int
+        Global index of the polygon (FEM: cell) where it occurs.
+    min_J_tag : int
+        Its region tag.
+    folded : int
+        Number of folded elements (:mod:`~dolfinx_sfvem.injectivity`): deformed boundary
+        through vertices and edge midpoints turned over or crossing itself.
+    folded_polygon : int
+        Global index of one of them (-1 if none).
+    kinked : int
+        Number of kinked solid elements (boundary crossing itself, orientation kept): reported,
+        not rejected.
+    """
+    energy: float
+    min_J: float
+    min_J_polygon: int
+    min_J_tag: int
+    folded: int = 0
+    folded_polygon: int = -1
+    kinked: int = 0
+
+    @property
+    def admissible(self) -> bool:
+        """J > 0 at every quadrature point, no folded element and a finite energy."""
+        return self.min_J > 0.0 and self.folded == 0 and bool(np.isfinite(self.energy))
+
+
+def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) -> None:
+    """Every region tag of the mesh has an energy, and every energy's tag exists (ValueError otherwise)."""
+    present = set(np.unique(tags).tolist())
+    missing = sorted(present - set(materials))
+    if missing:
+        raise ValueError(f"no material given for region tag(s) {missing}; mesh tags are {sorted(present)}")
+    unknown = sorted(set(materials) - present)
+    if unknown:
+        raise ValueError(f"material given for region tag(s) {unknown} that the mesh does not have; "
+                         f"mesh tags are {sorted(present)}")
+    for tag, energy in materials.items():
+        if not isinstance(energy, Energy):
+            raise ValueError(f"material of region {tag} must be an Energy, got {type(energy).__name__}")
+
+
+def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """Rows of ``values`` (k, ...) whose ``keys`` (k,) are ``wanted`` (n,): a saved state on local nodes.
+
+    Raises
+    ------
+    ValueError
+        If a wanted key is missing (the state belongs to another mesh).
+    """
+    order = np.argsort(keys)
+    pos = np.searchsorted(keys, wanted, sorter=order)
+    found = order[np.minimum(pos, keys.size - 1)]
+    if keys.size == 0 or not np.array_equal(keys[found], wanted):
+        raise ValueError("the saved state does not belong to this mesh (node keys differ)")
+    return values[found]
+
+
+class Constraints:
+    """Dirichlet constraints u_c = g_c, imposed by row elimination.
+
+    The rows of the constrained unknowns become identity rows of the tangent (columns kept) and
+    their residual becomes ``x_c - g_c``, so the first Newton step of a load step moves them to
+    their new values and the free rows carry the consistent response (docs/method.md §6). This
+    class is the only place that knows how constraints enter the linear system.
+
+    Parameters
+    ----------
+    dofs : (k,) int
+        Constrained unknowns in local (blocked) numbering, owned and ghost, consistent across ranks.
+    n_owned, n_local
+        Owned and owned + ghost unknowns of this rank.
+    """
+
+    def __init__(self, dofs: np.ndarray, n_owned: int, n_local: int):
+        dofs = np.asarray(dofs, dtype=np.int64)
+        if dofs.size and (dofs.min() < 0 or dofs.max() >= n_local):
+            raise ValueError(f"constrained unknowns must lie in [0, {n_local}), got {dofs.min()}..{dofs.max()}")
+        self.mask = np.zeros(n_local, dtype=bool)
+        self.mask[dofs] = True
+        #: owned constrained and owned free unknowns (local indices)
+        self.owned = np.flatnonzero(self.mask[:n_owned])
+        self.owned_free = np.flatnonzero(~self.mask[:n_owned])
+
+    def set_residual_rows(self, x: PETSc.Vec, b: PETSc.Vec, g: np.ndarray) -> None:
+        """b_c = x_c - g_c on the owned constrained rows; ``g`` (len(owned),) the prescribed values."""
+        with x.localForm() as xl:
+            xc = xl.array_r[self.owned]
+        b.getArray()[self.owned] = xc - g
+
+    def eliminate(self, A: PETSc.Mat) -> None:
+        """Constrained rows of the assembled tangent A become identity rows (columns kept).
+
+        A must keep its nonzero pattern when rows are zeroed (``KEEP_NONZERO_PATTERN``) and hold
+        its diagonal in the pattern.
+        """
+        rows = A.getOwnershipRange()[0] + self.owned
+        A.zeroRows(rows.astype(PETSc.IntType), diag=1.0)
+
+
+class Discretization(abc.ABC):
+    """A discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ (Eq. 46) with the layout of the module
+    docstring: what :class:`~dolfinx_sfvem.ContactProblem`, the solver, the run output and the
+    contact checks use.
+
+    Attributes
+    ----------
+    method : str
+        ``"vem"`` or ``"fem"`` (summary.json).
+    comm : MPI.Comm
+    x_nodes : (n_local_nodes, 2)
+        Reference coordinates of the local nodes.
+    node_key : (n_local_nodes,) int64
+        Partition-independent key of every local node (module docstring).
+    """
+
+    method: str
+    comm: MPI.Comm
+    x_nodes: np.ndarray
+    node_key: np.ndarray
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    @abc.abstractmethod
+    def n_owned_nodes(self) -> int:
+        """Nodes owned by this rank."""
+
+    @property
+    @abc.abstractmethod
+    def n_local_nodes(self) -> int:
+        """Owned and ghost nodes of this rank."""
+
+    @property
+    @abc.abstractmethod
+    def num_dofs_global(self) -> int:
+        """Unknowns over all ranks (2 per node)."""
+
+    @property
+    def n_owned_dofs(self) -> int:
+        """Unknowns owned by this rank."""
+        return 2 * self.n_owned_nodes
+
+    @property
+    def n_local_dofs(self) -> int:
+        """Owned and ghost unknowns of this rank."""
+        return 2 * self.n_local_nodes
+
+    # ------------------------------------------------------------------ PETSc objects
+    @abc.abstractmethod
+    def create_vector(self) -> PETSc.Vec:
+        """A ghosted vector of the unknowns (block size 2)."""
+
+    @abc.abstractmethod
+    def create_matrix(self) -> PETSc.Mat:
+        """An AIJ matrix with the tangent's pattern (diagonal included) that keeps its pattern
+        when rows are zeroed."""
+
+    # ------------------------------------------------------------------ assembly
+    @abc.abstractmethod
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
+        """Internal force b = ∂W/∂u at x (ghosts of x current; b's ghost contributions accumulated
+        on their owners), constraints not applied, with the state's diagnostics (collective)."""
+
+    @abc.abstractmethod
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """b = ∂W_medium/∂u, the internal force of the third-medium regions alone, at x."""
+
+    @abc.abstractmethod
+    def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """Tangent ∂²W/∂u² at x into A, assembled, constraints not applied (collective)."""
+
+    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """Tangent at x into A with the rows of the constrained unknowns (:meth:`set_constraints`)
+        eliminated by :class:`Constraints` (collective)."""
+        self.assemble_tangent(x, A)
+        self.constraints.eliminate(A)
+
+    @abc.abstractmethod
+    def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
+        """External force vector of a body force ``f(x)`` (2, n) -> (2, n) per unit reference area."""
+
+    # ------------------------------------------------------------------ constraints
+    def set_constraints(self, dofs: np.ndarray) -> None:
+        """Register the constrained unknowns (local blocked numbering, owned and ghost, consistent
+        across ranks) for :meth:`jacobian` and the solver's residual rows; replaces earlier ones."""
+        self._constraints = Constraints(dofs, self.n_owned_dofs, self.n_local_dofs)
+
+    @property
+    def constraints(self) -> Constraints:
+        """The registered constraints (none before :meth:`set_constraints`)."""
+        if getattr(self, "_constraints", None) is None:
+            self.set_constraints(np.empty(0, dtype=np.int64))
+        return self._constraints
+
+    # ------------------------------------------------------------------ locating unknowns
+    @abc.abstractmethod
+    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local nodes (owned and ghost) selected by ``marker`` (a function of coordinates (2, n)
+        returning a bool array (n,)) and/or region ``tags``, consistent across ranks."""
+
+    def locate_dofs(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
+                    component: int | None = None) -> np.ndarray:
+        """Local blocked unknowns (sorted, int64) at the nodes of :meth:`locate_nodes`;
+        ``component`` 0, 1, or None for both."""
+        nodes = self.locate_nodes(marker, tags)
+        comps = (0, 1) if component is None else (component,)
+        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+
+    def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
+        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
+        return self.x_nodes[dofs // 2]
+
+    @abc.abstractmethod
+    def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
+        """Values (k,) of the unknowns ``dofs`` (k,) of one component for the function
+        ``value(x)`` (2, n) -> (n,)."""
+
+    # ------------------------------------------------------------------ state (checkpoints, gathers)
+    def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2))."""
+        n_owned = self.n_owned_nodes
+        with x.localForm() as xl:
+            values = xl.array_r.reshape(-1, 2)[:n_owned].copy()
+        return self.node_key[:n_owned].copy(), values
+
+    def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
+        """Inverse of :meth:`get_state` for the full set of keys (any partition), ghosts included."""
+        with x.localForm() as xl:
+            xl.array[:] = values_by_key(keys, values, self.node_key).ravel()
+
+    @abc.abstractmethod
+    def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Node keys of the midpoints of the edges between the :attr:`output_mesh` points a and b (n,)."""
+
+    # ------------------------------------------------------------------ evaluation
+    @abc.abstractmethod
+    def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Displacement at reference ``points`` (n, 2) inside this rank's elements: (values (n, 2),
+        found (n,) bool); points elsewhere get zeros and False."""
+
+    @abc.abstractmethod
+    def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The discrete displacement and its gradient at this rank's quadrature points of the error
+        norms: (points (n, 2), weights (n,) [area], u_h (n, 2), ∇u_h (n, 2, 2))."""
+
+    def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
+                    grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
+        """‖u − u_h‖_L2 and |u − u_h|_H1 = ‖∇u − ∇u_h‖_L2 over the mesh (collective), with u_h and
+        ∇u_h of :meth:`quadrature_fields`.
+
+        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
+        """
+        X, w, u_h, grad_h = self.quadrature_fields(x)
+        e0 = np.sum(w * np.sum((np.asarray(u_exact(X.T)).T - u_h) ** 2, axis=1))
+        e1 = np.sum(w * np.sum((np.moveaxis(np.asarray(grad_exact(X.T)), -1, 0) - grad_h) ** 2, axis=(1, 2)))
+        return (float(np.sqrt(self.comm.allreduce(e0, op=MPI.SUM))),
+                float(np.sqrt(self.comm.allreduce(e1, op=MPI.SUM))))
+
+    # ------------------------------------------------------------------ output
+    @property
+    @abc.abstractmethod
+    def output_mesh(self) -> PolygonMesh:
+        """The polygon mesh (identical on all ranks) that pictures and contact checks use."""
+
+    @abc.abstractmethod
+    def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """(point indices (k,) of :attr:`output_mesh`, displacements (k, 2)) known on this rank."""
+
+    @abc.abstractmethod
+    def output_function(self, x: PETSc.Vec, u=None):
+        """The displacement as a DOLFINx Function (P2; written into ``u`` when given)."""
+
+    @property
+    @abc.abstractmethod
+    def dolfinx_mesh(self):
+        """The DOLFINx mesh of :meth:`output_function` (XDMF output)."""
+
+    @abc.abstractmethod
+    def describe(self) -> dict:
+        """Mesh facts for summary.json (JSON-serialisable)."""

@@ -1,0 +1,197 @@
+"""The files of a run, written as it goes, and resuming a stopped run from them.
+
+A run directory holds ``summary.json`` (:meth:`~dolfinx_sfvem.ContactProblem.summary`),
+``load_path.csv``, ``displacement.xdmf``/``.h5`` and :data:`CHECKPOINT`; all but the XDMF pair
+are rewritten atomically after every converged step, so a run killed at any moment leaves a
+consistent directory that ``solve(..., resume=True)`` continues (docs/architecture.md).
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+import typing
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _compat, post
+from .run_summary import RUNNING, STOPPED_BY_SIGNAL
+from .solver import LoadStepper, StepRecord
+
+if typing.TYPE_CHECKING:
+    from .problem import ContactProblem
+
+#: state of the last converged step: node ``keys`` (k,), nodal ``values`` (k, 2), the nominal
+#: ``steps`` and the load stepper's ``load``, ``increment`` and ``streak``
+CHECKPOINT = "checkpoint.npz"
+#: first bytes of every HDF5 file (its superblock signature)
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: summary.json entries that may differ between a stopped run and its resumption
+_RUN_ENTRIES = ("wall_time_s", "converged", "message", "steps", "ranks")
+
+
+def problem_identity(summary: typing.Mapping[str, typing.Any]) -> dict[str, typing.Any]:
+    """What identifies the problem of a summary (everything but the run's progress and the
+    PETSc options), flattened to ``{"parameters.uy": -0.3, ...}`` and normalised through JSON."""
+    data = json.loads(json.dumps({k: v for k, v in summary.items() if k not in _RUN_ENTRIES},
+                                 default=post.json_default))
+    data.get("parameters", {}).pop("petsc_options", None)
+    flat: dict[str, typing.Any] = {}
+
+    def walk(prefix: str, value: typing.Any) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                walk(f"{prefix}.{k}" if prefix else str(k), v)
+        else:
+            flat[prefix] = value
+    walk("", data)
+    return flat
+
+
+def differences(saved: typing.Mapping[str, typing.Any], now: typing.Mapping[str, typing.Any]) -> list[str]:
+    """``"name: saved A, now B"`` for every entry that differs."""
+    return [f"{k}: saved {saved.get(k, 'nothing')!r}, now {now.get(k, 'nothing')!r}"
+            for k in sorted(set(saved) | set(now)) if saved.get(k) != now.get(k)]
+
+
+@dataclass
+class Checkpoint:
+    """What a stopped run left to continue from (:func:`read_checkpoint`).
+
+    Attributes
+    ----------
+    keys : (k,) int64
+        Node keys (:meth:`Discretization.get_state`) of the whole mesh.
+    values : (k, 2)
+        Displacement of every node [length].
+    stepper : dict
+        The :class:`LoadStepper` state (``load``, ``increment``, ``streak``).
+    records : list of dict
+        The converged steps of summary.json.
+    wall_time_s : float
+        Wall time of the stopped run [s] (0 when not finite).
+    """
+    keys: np.ndarray
+    values: np.ndarray
+    stepper: dict[str, float]
+    records: list[dict]
+    wall_time_s: float
+
+
+def read_checkpoint(out: pathlib.Path, steps: int, summary_now: typing.Mapping[str, typing.Any]) -> Checkpoint:
+    """The checkpoint of the run in ``out``, which must have solved the problem of ``summary_now``
+    with ``steps`` nominal steps (ValueError naming what differs otherwise)."""
+    path = out / CHECKPOINT
+    if not path.exists():
+        raise ValueError(f"cannot resume: {path} does not exist")
+    data = np.load(path)
+    if int(data["steps"]) != steps:
+        raise ValueError(f"cannot resume: the stopped run used {int(data['steps'])} steps, not {steps}")
+    with open(out / "summary.json") as f:
+        previous = json.load(f)
+    differing = differences(problem_identity(previous), problem_identity(summary_now))
+    if differing:
+        raise ValueError(f"cannot resume the run in {out}: it solved another problem ({'; '.join(differing)}); "
+                         "resuming continues the same problem only, start a new run (another output "
+                         "directory) to change it")
+    earlier = previous.get("wall_time_s")
+    return Checkpoint(data["keys"], data["values"], {k: float(data[k]) for k in ("load", "increment", "streak")},
+                      [r for r in previous["steps"] if r["converged"]],
+                      float(earlier) if isinstance(earlier, (int, float)) and np.isfinite(earlier) else 0.0)
+
+
+def progress_line(rec: StepRecord) -> str:
+    """One line per converged step: Newton, J, gap, time and the first prescribed condition's
+    reaction (the full record is in summary.json and load_path.csv)."""
+    res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
+    gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
+    kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
+    loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
+    reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
+    return (f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
+            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s{reaction}")
+
+
+def _first_bytes(path: pathlib.Path, n: int) -> bytes:
+    with open(path, "rb") as f:
+        return f.read(n)
+
+
+class RunWriter:
+    """Writes the outputs of a run as it goes (every converged step) and at its end."""
+
+    def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
+                 append: bool = False):
+        import dolfinx.fem
+        self.problem = problem
+        self.stepper = stepper
+        self.out = pathlib.Path(out)
+        if problem.comm.rank == 0:
+            self.out.mkdir(parents=True, exist_ok=True)
+        problem.comm.barrier()
+        mesh = problem.disc.dolfinx_mesh
+        self.u_p2 = None
+        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(mesh, 1), name="u")
+        self.xdmf_path = self.out / "displacement.xdmf"
+        self.xdmf_started = append and self._readable_xdmf()
+
+    def _readable_xdmf(self) -> bool:
+        """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed
+        run left behind (HDF5 superblock missing) is renamed ``*.broken`` and a new series begins."""
+        comm = self.problem.comm
+        h5 = self.xdmf_path.with_suffix(".h5")
+        ok = None
+        if comm.rank == 0:
+            ok = self.xdmf_path.exists() and h5.exists() and _first_bytes(h5, 8) == HDF5_SIGNATURE
+            if not ok:
+                for path in (self.xdmf_path, h5):
+                    if path.exists():
+                        path.replace(path.with_name(path.name + ".broken"))
+                        print(f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
+                              "the displacement series starts again", flush=True)
+        return comm.bcast(ok, root=0)
+
+    def _write_xdmf(self, load: float) -> None:
+        """Append one time step; the file is opened and closed around it, so a run killed
+        between steps leaves a readable series."""
+        import dolfinx.io
+        with dolfinx.io.XDMFFile(self.problem.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
+            if not self.xdmf_started:
+                f.write_mesh(self.problem.disc.dolfinx_mesh)
+            f.write_function(self.u_p1, load)
+        self.xdmf_started = True
+
+    def step(self, records: list[dict], wall: float) -> None:
+        """Write the converged step ``records[-1]``: XDMF, checkpoint, a summary marked running
+        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv."""
+        p = self.problem
+        self.u_p2 = p.disc.output_function(p.x, self.u_p2)
+        self.u_p1.interpolate(self.u_p2)
+        self._write_xdmf(records[-1]["load"])
+        partial = p.summary(records, wall, False, RUNNING)
+        keys, values = p.disc.get_state(p.x)
+        pieces = p.comm.gather((keys, values), root=0)
+        if p.comm.rank == 0:
+            keys = np.concatenate([k for k, _ in pieces])
+            values = np.concatenate([v for _, v in pieces])
+            order = np.argsort(keys)
+            post.write_npz(self.out / CHECKPOINT, keys=keys[order], values=values[order],
+                           steps=round(1 / self.stepper.nominal), **self.stepper.state())
+            post.write_json(self.out / "summary.json", partial)
+            post.write_load_path_csv(self.out / "load_path.csv", records)
+
+    def finish(self, summary: dict) -> None:
+        """Write the final summary.json and load_path.csv and the pictures of the last state."""
+        p = self.problem
+        u = p.point_displacements()
+        pressure = p.contact_pressure()
+        if p.comm.rank == 0:
+            post.write_json(self.out / "summary.json", summary)
+            post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
+            load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
+            post.plot_deformed_polygons(self.out / "deformed.png", p.disc.output_mesh, u,
+                                        title=f"{p.method}: load factor {load:.3g}")
+            post.plot_deformed_polygons(self.out / "uy.png", p.disc.output_mesh, u, node_values=u[:, 1],
+                                        title="u_y")
+            post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
+                                       title=f"{p.method}: contact pressure at load factor {load:.3g}")
