@@ -15,6 +15,8 @@ import typing
 import numpy as np
 from mpi4py import MPI
 
+from .figure_output import save_png
+
 
 def atomic_write_text(path: pathlib.Path, text: str) -> None:
     """Write ``text`` to ``path`` via a temporary file and an atomic rename."""
@@ -110,10 +112,7 @@ def plot_contact_pressure(path: pathlib.Path, pressure, title: str = "") -> None
     ax.set_title(title)
     if ax.lines:
         ax.legend(fontsize=7)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path)
+    save_png(fig, path)
 
 
 def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.ndarray,
@@ -152,10 +151,7 @@ def plot_deformed_polygons(path: pathlib.Path, polygon_mesh, displacement: np.nd
     ax.autoscale()
     ax.set_aspect("equal")
     ax.set_title(title)
-    tmp = pathlib.Path(path).with_name(f".{pathlib.Path(path).name}.tmp.png")
-    fig.savefig(tmp, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
+    save_png(fig, path, bbox_inches="tight")
 
 
 def _extra_values(polygon_mesh, values: np.ndarray) -> np.ndarray:
