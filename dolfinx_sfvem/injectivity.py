@@ -41,6 +41,9 @@ def _orientation(p, q, r):
 @numba.njit(cache=True)
 def segments_cross(p, q, r, s) -> bool:
     """Whether the closed segments [p, q] and [r, s] (each (2,)) have a point in common."""
+    for k in range(2):                      # disjoint bounding boxes: no common point (the common case)
+        if max(p[k], q[k]) < min(r[k], s[k]) or max(r[k], s[k]) < min(p[k], q[k]):
+            return False
     o1, o2 = _orientation(p, q, r), _orientation(p, q, s)
     o3, o4 = _orientation(r, s, p), _orientation(r, s, q)
     if o1 != o2 and o3 != o4:
