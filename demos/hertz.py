@@ -160,7 +160,7 @@ def block_contact(pairs: typing.Sequence[dict], block: int) -> dict | None:
     return next((c for c in pairs if c["body"] == block), None)
 
 
-def block_body(pressure: sf.ContactPressure, L: float) -> int:
+def block_body(pressure: sf.ContactPressure) -> int:
     """The body index of the block: the body of the boundary node at the origin."""
     return int(pressure.body[np.argmin(np.hypot(*pressure.X.T))])
 
@@ -237,7 +237,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     pressure = problem.contact_pressure()          # the last converged state (collective)
     if problem.comm.rank == 0:
         summary = read_summary(args.out)
-        block = block_body(pressure, args.block)
+        block = block_body(pressure)
         rows = hertz_rows(summary, block, touching=0.05 * args.gap)
         write_table(rows, args.out / "hertz.md", title)
         xp = block_top_pressure(pressure, block, args.block)
