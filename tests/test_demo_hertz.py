@@ -27,7 +27,7 @@ def test_hertz_formulas_against_closed_form():
     assert a == pytest.approx(math.sqrt(4 * P * 0.84 / math.pi))
     x = np.linspace(-a, a, 20001)
     p = hertz.hertz_pressure(x, P)
-    assert np.trapz(p, x) == pytest.approx(P, rel=1e-3)
+    assert np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(x)) == pytest.approx(P, rel=1e-3)   # trapezoidal rule
     assert hertz.hertz_pressure(np.array([1.01 * a]), P)[0] == 0.0
 
 
