@@ -1,4 +1,4 @@
-"""Diagnose a stalled load step of demos/cylinder_block.py (serial; docs/gamma-1e-6.md).
+"""Diagnose a stalled load step of demos/hertz.py (serial; docs/gamma-1e-6.md).
 
 From the checkpoint of a stopped run (``--from DIR``, the same options as that run), this
 measures at the last converged state and after a Newton solve to ``--target``:
@@ -9,7 +9,7 @@ measures at the last converged state and after a Newton solve to ``--target``:
   where the lowest eigenvector lives;
 - which rows carry the residual: per region, constrained rows, and the largest entries.
 
-    .venv/bin/python bench/gamma6_diagnose.py --h 0.03 --steps 20 --from out/cyl-h03-g6 --target 0.679834
+    .venv/bin/python bench/gamma6_diagnose.py --gamma 1e-6 --h 0.03 --steps 20 --from out/cyl-h03-g6 --target 0.679834
 
 ``--energy-ls`` instead runs a prototype Newton with a line search on the energy (slope
 R(x + t dx) . dx) from the checkpoint to ``--target``.
@@ -26,7 +26,7 @@ from petsc4py import PETSc
 
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "demos"))
-import cylinder_block as cb  # noqa: E402
+import hertz as cb  # noqa: E402
 import _common as common  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
 from dolfinx_sfvem.solver import LoadStepper, NewtonSolver  # noqa: E402
@@ -64,7 +64,7 @@ def main(argv=None) -> None:
     p.add_argument("--target", type=float, required=True)
     p.add_argument("--neig", type=int, default=6)
     args = common.parse_args(p, argv)
-    problem, _ = cb.build(args)
+    problem = cb.build(args)
     disc, comm = problem.disc, problem.comm
     assert comm.size == 1, "serial only"
     dofs, final, dofs_of = problem._constraints()
@@ -249,7 +249,7 @@ def main_energy(argv=None):
     p.add_argument("--from", dest="src", type=pathlib.Path, required=True)
     p.add_argument("--target", type=float, required=True)
     args = common.parse_args(p, argv)
-    problem, _ = cb.build(args)
+    problem = cb.build(args)
     dofs, final, _ = problem._constraints()
     problem.disc.set_constraints(dofs)
     constrained = problem.disc.constraints.mask

@@ -16,7 +16,7 @@ Studies (the demos' defaults unless listed):
 - box (§5.1), mesh 1, gamma = 1e-5, alpha_r = 1: h = 0.05, 0.025; and gamma = 1e-6 at h = 0.05;
 - soft punch (§5.3): h = 0.1, 0.05;
 - multiple objects (§5.4), BC 1: h = 0.04, 0.02;
-- a stiff cylinder on a soft block (``cylinder_block.py``) at gamma = 1e-5 and 1e-6, h = 0.05, 0.03:
+- a stiff cylinder on a soft block (``hertz.py``) at gamma = 1e-5 and 1e-6, h = 0.05, 0.03:
   at gamma = 1e-6 Newton stalls after contact (docs/gamma-1e-6.md), so there a stop naming the
   limit is the honest outcome.
 
@@ -83,8 +83,8 @@ STUDIES = (
           (Size("h = 0.1", ("--h", "0.1"), 120), Size("h = 0.05", ("--h", "0.05"), 500))),
     Study("multi", "Multiple objects (§5.4), BC 1: u_y = -0.3 in 30 steps", "multi_object", "discs", ("--bc", "1"),
           (Size("h = 0.04", ("--h", "0.04"), 100), Size("h = 0.02", ("--h", "0.02"), 800))),
-    Study("cylinder", "Stiff cylinder on a soft block (demos/cylinder_block.py): u_y = -0.3 in 20 steps, "
-          "rotation, alpha_r = 1", "cylinder_block", "load", ("--steps", "20"),
+    Study("cylinder", "Stiff cylinder on a soft block (demos/hertz.py): u_y = -0.3 in 20 steps, "
+          "rotation, alpha_r = 1", "hertz", "load", ("--steps", "20"),
           (Size("h = 0.05, gamma = 1e-5", ("--h", "0.05", "--gamma", "1e-5"), 60, "gamma 1e-5"),
            Size("h = 0.03, gamma = 1e-5", ("--h", "0.03", "--gamma", "1e-5"), 120, "gamma 1e-5"),
            Size("h = 0.05, gamma = 1e-6", ("--h", "0.05", "--gamma", "1e-6"), 90, "gamma 1e-6", may_stop=True),
