@@ -111,6 +111,9 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                    help="--method fem only: add C0 interior-penalty terms with penalty ETA on the medium's "
                         "interior facets (dolfinx_sfvem/fem.py; e.g. 40; default: none, as the paper's model)")
     p.add_argument("--quiet", action="store_true", help="no progress output, only the final lines")
+    p.add_argument("--pressure-at", type=positive_float, nargs="+", default=(), metavar="LOAD",
+                   help="also plot the contact pressure at these load factors "
+                        "(contact_pressure_<load>.png; the last state's is always plotted)")
     p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
                    help="continue the stopped run in DIR from its last converged step (same options as that run)")
     return p
@@ -223,18 +226,19 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         **solve_options) -> int:
     """Solve the load path, write the outputs to ``args.out`` and report.
 
-    The command-line arguments (except ``--out`` and ``--quiet``) are stored in the
-    "parameters" of summary.json. ``solve_options`` (e.g. ``min_increment``) go to
-    :meth:`~dolfinx_sfvem.ContactProblem.solve`.
+    The command-line arguments (except ``--out``, ``--quiet``, ``--resume`` and
+    ``--pressure-at``) are stored in the "parameters" of summary.json. ``solve_options``
+    (e.g. ``min_increment``) go to :meth:`~dolfinx_sfvem.ContactProblem.solve`.
 
     Returns
     -------
     int
         Exit code: 0 if the full load was reached, 1 otherwise.
     """
-    problem.parameters.update({k: v for k, v in vars(args).items() if k not in ("out", "quiet", "resume")})
+    problem.parameters.update({k: v for k, v in vars(args).items()
+                               if k not in ("out", "quiet", "resume", "pressure_at")})
     result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None,
-                           **solve_options)
+                           pressure_at=args.pressure_at, **solve_options)
     if problem.comm.rank == 0:
         files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
         print(f"outputs in {args.out}/: {', '.join(files)}")

@@ -363,7 +363,8 @@ class ContactProblem:
               petsc_options: typing.Mapping[str, typing.Any] | None = None,
               min_increment: float | None = None,
               observers: typing.Mapping[str, Observer] | None = None,
-              raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False) -> Result:
+              raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
+              pressure_at: typing.Iterable[float] = ()) -> Result:
         """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
 
         Parameters
@@ -391,6 +392,10 @@ class ContactProblem:
             A problem solved once refuses to solve again unless this is True: then the load is
             ramped again from 0 starting from the current (deformed) state. :meth:`reset` returns
             to the reference state instead.
+        pressure_at
+            Load factors at which ``out`` gets a plot of the contact pressure along the solids'
+            boundaries (``contact_pressure_<load>.png``, at the first converged step reaching each);
+            the last state's is always written (``contact_pressure.png``).
         """
         if self._solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
@@ -408,7 +413,7 @@ class ContactProblem:
             if out is None:
                 raise ValueError("resume needs the output directory of the stopped run")
             records = self._restore_checkpoint(pathlib.Path(out), stepper, steps)
-        writer = RunWriter(self, out, stepper, append=resume) if out is not None else None
+        writer = RunWriter(self, out, stepper, append=resume, pressure_at=pressure_at) if out is not None else None
         observers = dict(observers or {})
         message = ""
         with StopRequest() as stop:
@@ -420,7 +425,8 @@ class ContactProblem:
                     if attempt.converged:
                         self._progress(rec)
                         if writer is not None:
-                            writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time)
+                            writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time,
+                                        self._attempt_contact[1])
                     elif self.verbose and self.comm.rank == 0:
                         print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; {rec.newton_iterations} "
                               "its); cutting the increment", flush=True)

@@ -19,7 +19,11 @@ from .run_summary import RUNNING, STOPPED_BY_SIGNAL
 from .solver import LoadStepper, StepRecord
 
 if typing.TYPE_CHECKING:
+    from .contact import ContactPressure
     from .problem import ContactProblem
+
+#: load factors closer than this count as equal (a step's load against a requested one)
+LOAD_TOL = 1e-9
 
 #: state of the last converged step: node ``keys`` (k,), nodal ``values`` (k, 2), the nominal
 #: ``steps`` and the load stepper's ``load``, ``increment`` and ``streak``
@@ -121,10 +125,13 @@ class RunWriter:
     """Writes the outputs of a run as it goes (every converged step) and at its end."""
 
     def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
-                 append: bool = False):
+                 append: bool = False, pressure_at: typing.Iterable[float] = ()):
         import dolfinx.fem
         self.problem = problem
         self.stepper = stepper
+        #: load factors whose contact pressure is still to be plotted (at the first converged step
+        #: that reaches each); those a resumed run has passed already are dropped
+        self.pressure_at = sorted(t for t in pressure_at if t > stepper.load + LOAD_TOL)
         self.out = pathlib.Path(out)
         if problem.comm.rank == 0:
             self.out.mkdir(parents=True, exist_ok=True)
@@ -161,10 +168,19 @@ class RunWriter:
             f.write_function(self.u_p1, load)
         self.xdmf_started = True
 
-    def step(self, records: list[dict], wall: float) -> None:
+    def step(self, records: list[dict], wall: float, pressure: ContactPressure) -> None:
         """Write the converged step ``records[-1]``: XDMF, checkpoint, a summary marked running
-        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv."""
+        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and
+        ``contact_pressure_<load>.png`` of ``pressure`` (its contact pressure) if the step
+        reaches one of the load factors of ``pressure_at``."""
         p = self.problem
+        load = records[-1]["load"]
+        due = [t for t in self.pressure_at if load >= t - LOAD_TOL]
+        if due:
+            self.pressure_at = self.pressure_at[len(due):]
+            if p.comm.rank == 0:
+                post.plot_contact_pressure(self.out / f"contact_pressure_{load:.4g}.png", pressure,
+                                           title=f"{p.method}: contact pressure at load factor {load:.4g}")
         self.u_p2 = p.disc.output_function(p.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
         self._write_xdmf(records[-1]["load"])

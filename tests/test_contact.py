@@ -180,13 +180,17 @@ def run_cbox(*args, out):
 
 
 def test_cbox_gap_is_recorded_per_step(tmp_path):
-    proc = run_cbox("--uy", "-0.2", "--steps", "4", out=tmp_path)
+    proc = run_cbox("--uy", "-0.2", "--steps", "4", "--pressure-at", "0.5", "0.6", out=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     gaps = [s["gap"]["value"] for s in summary["steps"]]
     assert gaps[0] < 0.3 and all(np.diff(gaps) < 0) and gaps[-1] > 0     # the beams approach
     header = (tmp_path / "load_path.csv").read_text().splitlines()[0].split(",")
     assert header[3:6] == ["gap", "gap_x", "gap_y"]
+    # pressure plots at the first steps reaching 0.5 and 0.6 (loads 0.5 and 0.75) and at the end
+    plots = sorted(f.name for f in tmp_path.glob("contact_pressure*.png"))
+    assert plots == ["contact_pressure.png", "contact_pressure_0.5.png", "contact_pressure_0.75.png"]
+    assert "pressure_at" not in summary["parameters"]      # output choice, not part of the problem
 
 
 def test_resume_of_another_problem_is_refused(tmp_path):
