@@ -257,13 +257,17 @@ class ContactProblem:
         self.f_ext = self.disc.body_force_vector(f)
 
     # ------------------------------------------------------------------ results
-    def reactions(self, dofs_of: dict[str, np.ndarray], load: float = 1.0) -> dict[str, list[float]]:
+    def reactions(self, dofs_of: dict[str, np.ndarray], load: float = 1.0,
+                  force: PETSc.Vec | None = None) -> dict[str, list[float]]:
         """Reaction force [R_x, R_y] on every boundary condition: the sum over its unknowns of
-        internal minus external force at the current state and load factor."""
-        b = self.disc.create_vector()
-        self.disc.residual(self.x, b)
-        if self.f_ext is not None:
-            b.axpy(-load, self.f_ext)
+        internal minus external force at the current state and load factor (``force``, that
+        vector if the caller has it already, e.g. the Newton solver's; else assembled here)."""
+        b = force
+        if b is None:
+            b = self.disc.create_vector()
+            self.disc.residual(self.x, b)
+            if self.f_ext is not None:
+                b.axpy(-load, self.f_ext)
         n_owned = self.disc.n_owned_dofs
         with b.localForm() as bl:
             r = bl.array_r
@@ -271,7 +275,8 @@ class ContactProblem:
             for name, dofs in dofs_of.items():
                 own = dofs[dofs < n_owned]
                 out[name] = [self.comm.allreduce(float(r[own[own % 2 == c]].sum()), op=MPI.SUM) for c in (0, 1)]
-        b.destroy()
+        if force is None:
+            b.destroy()
         return out
 
     def max_displacement(self) -> float:
@@ -420,7 +425,7 @@ class ContactProblem:
             try:
                 for attempt in stepper.attempts(functools.partial(self._solve_to, newton, final), self.x):
                     rec = self._record(attempt, sum(r["converged"] for r in records) + attempt.converged,
-                                       dofs_of, observers)
+                                       dofs_of, observers, newton)
                     records.append(asdict(rec))
                     if attempt.converged:
                         self._progress(rec)
@@ -459,9 +464,10 @@ class ContactProblem:
         return result
 
     def _record(self, attempt: Attempt, step: int, dofs_of: dict[str, np.ndarray],
-                observers: typing.Mapping[str, Observer]) -> StepRecord:
-        """The record of an attempt; a converged one with its gap, contact pressure, reactions,
-        largest displacement and the observers' values (collective)."""
+                observers: typing.Mapping[str, Observer], newton: NewtonSolver) -> StepRecord:
+        """The record of an attempt; a converged one with its gap, contact pressure, reactions
+        (from the force ``newton`` has at the converged state), largest displacement and the
+        observers' values (collective)."""
         res = attempt.result
         rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
                          residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
@@ -470,7 +476,8 @@ class ContactProblem:
             gap, pressure = self._attempt_contact
             rec.gap = gap.as_dict()
             rec.contact = [pair.as_dict() for pair in pressure.pairs]
-            rec.reaction = self.reactions(dofs_of, attempt.load)
+            newton.force_at(self.x)
+            rec.reaction = self.reactions(dofs_of, attempt.load, newton.force)
             rec.max_displacement = self.max_displacement()
             rec.extra = _observe(self, observers)
         return rec

@@ -202,6 +202,11 @@ class NewtonSolver:
         self.load = 1.0
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
+        #: internal minus external force at the state ``_force_state``, constraints not applied
+        #: (the last residual SNES evaluated, or :meth:`force_at`'s)
+        self.force = disc.create_vector()
+        self._force_state = disc.create_vector()
+        self._force_info = None
         self.history: list[float] = []
         self.worst_info = None      # smallest J met at any trial point of the current solve
 
@@ -223,6 +228,9 @@ class NewtonSolver:
             self.worst_info = info
         if self.f_ext is not None:
             b.axpy(-self.load, self.f_ext)
+        b.copy(self.force)
+        x.copy(self._force_state)
+        self._force_info = info
         self.disc.constraints.set_residual_rows(x, b, self.g)
         if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
@@ -279,6 +287,19 @@ class NewtonSolver:
         retry.iterations += result.iterations
         return retry
 
+    def force_at(self, x: PETSc.Vec) -> AssemblyInfo:
+        """Internal minus external force at ``x`` (ghosts current) into :attr:`force`, constraints
+        not applied, with the state's diagnostics: the last residual's if SNES evaluated it at
+        exactly this state, else assembled (collective)."""
+        self._force_state.axpy(-1.0, x)
+        same = self._force_info is not None and self._force_state.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+        if not same:
+            self._force_info = self.disc.residual(x, self.force)
+            if self.f_ext is not None:
+                self.force.axpy(-self.load, self.f_ext)
+        x.copy(self._force_state)
+        return self._force_info
+
     def _set_line_search(self, kind: str) -> None:
         """Set SNES up again from this solver's options with the line search ``kind``."""
         with _scoped_options({**self.options, "snes_linesearch_type": kind}):
@@ -296,7 +317,7 @@ class NewtonSolver:
         self.snes.solve(None, x)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         reason = self.snes.getConvergedReason()
-        info = self.disc.residual(x, self.b)      # state diagnostics at the final iterate
+        info = self.force_at(x)                   # state diagnostics at the final iterate
         ok = reason > 0 and info.admissible
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started

@@ -113,6 +113,23 @@ def test_newton_converges_quadratically_in_contact():
     assert min(orders.values()) > 1.6, orders
 
 
+def test_each_state_is_assembled_once(monkeypatch):
+    """A converged state's residual is the one SNES evaluated last: the state diagnostics and the
+    reactions reuse it, so a load path costs one residual per Newton iteration plus one per load
+    step (SNES's first at the new load) and one for the initial-state check, and the reactions
+    equal the internal force assembled afresh."""
+    problem = block_problem(uy=-0.02)
+    calls = []
+    assemble = type(problem.disc).residual
+    monkeypatch.setattr(type(problem.disc), "residual", lambda self, x, b: calls.append(1) or assemble(self, x, b))
+    result = problem.solve(4, petsc_options={"snes_linesearch_type": "basic"})
+    assert result.converged, result.message
+    steps = converged(result.steps)
+    assert len(calls) == sum(s["newton_iterations"] for s in steps) + len(steps) + 1
+    fresh = problem.reactions(problem._constraints()[2], 1.0)
+    np.testing.assert_allclose(steps[-1]["reaction"]["top"], fresh["top"], rtol=1e-12, atol=1e-14)
+
+
 # ----------------------------------------------------------------------------- cut-back
 def test_failed_step_is_cut_back():
     """With at most 4 Newton iterations the single full step fails; the stepper retries from the
