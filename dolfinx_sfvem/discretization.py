@@ -95,12 +95,20 @@ def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> n
 
 
 class Constraints:
-    """Dirichlet constraints u_c = g_c, imposed by row elimination.
+    """Dirichlet constraints u_c = g_c, imposed by symmetric elimination.
 
-    The rows of the constrained unknowns become identity rows of the tangent (columns kept) and
-    their residual becomes ``x_c - g_c``, so the first Newton step of a load step moves them to
-    their new values and the free rows carry the consistent response (docs/method.md §6). This
-    class is the only place that knows how constraints enter the linear system.
+    The residual of a constrained unknown is ``r_c = x_c - g_c``. In the tangent the rows *and
+    columns* of the constrained unknowns are zeroed with 1 on the diagonal, and the free rows of
+    the residual get the lifting ``b_f -= K_fc r_c``. The eliminated system
+
+        [K_ff  0] [dx_f]   [b_f - K_fc r_c]
+        [0     I] [dx_c] = [r_c           ]
+
+    has the Newton step of the row-eliminated one (``dx_c = r_c``, ``K_ff dx_f + K_fc dx_c = b_f``),
+    so the first Newton step of a load step moves the constrained unknowns to their new values and
+    the free rows carry the consistent response (docs/method.md §6), while the matrix stays
+    symmetric (a symmetric factorization applies; its inertia is K_ff's plus k positive ones).
+    This class is the only place that knows how constraints enter the linear system.
 
     Parameters
     ----------
@@ -126,14 +134,26 @@ class Constraints:
             xc = xl.array_r[self.owned]
         b.getArray()[self.owned] = xc - g
 
-    def eliminate(self, A: PETSc.Mat) -> None:
-        """Constrained rows of the assembled tangent A become identity rows (columns kept).
+    def eliminate(self, A: PETSc.Mat, b: PETSc.Vec | None = None) -> None:
+        """Constrained rows and columns of the assembled tangent A zeroed, 1 on the diagonal.
 
-        A must keep its nonzero pattern when rows are zeroed (``KEEP_NONZERO_PATTERN``) and hold
-        its diagonal in the pattern.
+        Parameters
+        ----------
+        A
+            The tangent, assembled; keeps its nonzero pattern and holds its diagonal in it.
+        b
+            The residual at the same state with its constrained rows set (:meth:`set_residual_rows`),
+            or None. Given, its free rows get the lifting ``b_f -= K_fc r_c`` with the K_fc of A
+            before the elimination (collective).
         """
-        rows = A.getOwnershipRange()[0] + self.owned
-        A.zeroRows(rows.astype(PETSc.IntType), diag=1.0)
+        rows = (A.getOwnershipRange()[0] + self.owned).astype(PETSc.IntType)
+        if b is None:
+            A.zeroRowsColumns(rows, diag=1.0)
+            return
+        r = b.duplicate()
+        b.copy(r)
+        A.zeroRowsColumns(rows, 1.0, r, b)
+        r.destroy()
 
 
 class Discretization(abc.ABC):
@@ -208,8 +228,8 @@ class Discretization(abc.ABC):
         """Tangent ∂²W/∂u² at x into A, assembled, constraints not applied (collective)."""
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Tangent at x into A with the rows of the constrained unknowns (:meth:`set_constraints`)
-        eliminated by :class:`Constraints` (collective)."""
+        """Tangent at x into A with the rows and columns of the constrained unknowns
+        (:meth:`set_constraints`) eliminated by :class:`Constraints` (collective)."""
         self.assemble_tangent(x, A)
         self.constraints.eliminate(A)
 

@@ -4,7 +4,16 @@ Dirichlet conditions enter through the Newton update (docs/method.md §6), by th
 registered on the discretization (:class:`~dolfinx_sfvem.discretization.Constraints`): the
 first Newton step of a load step moves the constrained unknowns to their new values ``g``
 and the free rows of the tangent carry the consistent response. The state is never
-overwritten with the new boundary values before a solve.
+overwritten with the new boundary values before a solve. The constraints are eliminated
+symmetrically (rows and columns, the prescribed increment lifted into the residual), so the
+tangent of the energy stays symmetric.
+
+Default linear solver: MUMPS's LDL^T factorization for symmetric indefinite matrices
+(``pc_type cholesky``, MUMPS ``SYM = 2``); ``pc_type lu`` (or any other) can be given. With
+LDL^T the number of negative pivots (MUMPS ``INFOG(12)``) is, by Sylvester's law of inertia,
+the number of negative eigenvalues of the free block K_ff of the factorized tangent: reported as
+:attr:`NewtonResult.negative_pivots`, it shows where the load path passes a limit or
+bifurcation point (docs/performance.md).
 
 Default line search: ``bt`` (one residual per Newton iteration when the full step is
 acceptable), and a solve that fails with it is repeated once from its start with
@@ -46,7 +55,7 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
     "snes_stol": "0",
     "snes_max_it": "30",
     "ksp_type": "preonly",
-    "pc_type": "lu",
+    "pc_type": "cholesky",
     "pc_factor_mat_solver_type": "mumps",
     **_compat.PETSC_OPTION_DEFAULTS,
 }
@@ -138,6 +147,7 @@ class NewtonResult:
     folded: int = 0
     kinked: int = 0
     failure: str = ""
+    negative_pivots: int | None = None  # of the last factorized tangent; None: not LDL^T or none factorized
 
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
@@ -199,12 +209,16 @@ class NewtonSolver:
         self._f_ext_norm = f_ext.norm(PETSc.NormType.INFINITY) if f_ext is not None else 0.0
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the first tangent of the current solve
         self._stiffness_current = False
+        self._factorized = False    # a tangent was factorized in the current solve
         self.load = 1.0
         self.A = disc.create_matrix()
+        self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)   # the Hessian of an energy, constraints
+        self.A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)  # eliminated symmetrically
         self.b = disc.create_vector()
         #: internal minus external force at the state ``_force_state``, constraints not applied
         #: (the last residual SNES evaluated, or :meth:`force_at`'s)
         self.force = disc.create_vector()
+        self._unlifted = disc.create_vector()   # F before the lifting of the constraints (_jacobian)
         self._force_state = disc.create_vector()
         self._force_info = None
         self.history: list[float] = []
@@ -220,6 +234,7 @@ class NewtonSolver:
         with _scoped_options(options):
             snes.setFromOptions()
             self.scaled_atol = not PETSc.Options().hasName("snes_atol")
+        snes.setLineSearchPreCheck(self._unlift)
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -237,15 +252,28 @@ class NewtonSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self.disc.jacobian(x, A)
+        self.disc.assemble_tangent(x, A)
         if self.scaled_atol:
             if not self._stiffness_current:
                 self._stiffness = self._free_row_norm(A)
                 self._stiffness_current = True
             snes.setTolerances(atol=self.absolute_tolerance(x))
+        # SNES solves A dx = F with its F at x (self.b, just evaluated): lift the prescribed increments
+        # into F for the linear solve; :meth:`_unlift` puts the residual back before the line search
+        self.b.copy(self._unlifted)
+        self.disc.constraints.eliminate(A, self.b)
+        self._factorized = True
+
+    def _unlift(self, x: PETSc.Vec, y: PETSc.Vec, *args) -> bool:
+        """Line-search pre-check: the residual F at x back in place of the lifted right-hand side of
+        the linear solve, so that the line search sees the residual whose norm SNES tests (its
+        slope F·(A dx) is then exact up to F_f·K_fc r_c, zero when F_f or the prescribed
+        increment r_c is); the step dx (``y``) is left unchanged."""
+        self._unlifted.copy(self.b)
+        return False
 
     def _free_row_norm(self, A: PETSc.Mat) -> float:
-        """Largest sum of absolute values over the free rows of A (the others are identity rows)."""
+        """Largest sum of absolute values over the free rows of the tangent A (before elimination)."""
         indptr, _, values = A.getValuesCSR()
         rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
         sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
@@ -304,6 +332,7 @@ class NewtonSolver:
         """Set SNES up again from this solver's options with the line search ``kind``."""
         with _scoped_options({**self.options, "snes_linesearch_type": kind}):
             self.snes.setFromOptions()
+        self.snes.setLineSearchPreCheck(self._unlift)
 
     def _solve_once(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
         """One SNES solve from ``x`` with the line search as set (see :meth:`solve`)."""
@@ -312,6 +341,7 @@ class NewtonSolver:
         self.history = []
         self.worst_info = None
         self._stiffness_current = False
+        self._factorized = False
         if self.scaled_atol:
             self.snes.setTolerances(atol=self.absolute_tolerance(x))
         self.snes.solve(None, x)
@@ -325,7 +355,14 @@ class NewtonSolver:
         failure = "" if ok else _failure(reason, info, self.history, atol,
                                          atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure)
+                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
+                            self.negative_pivots() if self._factorized else None)
+
+    def negative_pivots(self) -> int | None:
+        """Negative pivots of the last LDL^T factorization of the tangent (MUMPS ``INFOG(12)``, global),
+        the number of negative eigenvalues of its free block; None unless the linear solver is
+        MUMPS's symmetric factorization."""
+        return _compat.mumps_negative_pivots(self.snes.getKSP().getPC())
 
 
 @dataclass
@@ -357,6 +394,7 @@ class StepRecord:
     max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)
+    negative_pivots: int | None = None
 
 
 class LoadStepper:

@@ -1,13 +1,15 @@
 """The discretization contract (dolfinx_sfvem.discretization, docs/architecture.md), for both methods.
 
 - Both classes implement every abstract member.
-- Constraints registered once: constrained rows of the tangent are identity rows with the columns
-  kept, the free rows unchanged; the residual rows of the constrained unknowns become x_c - g_c.
+- Constraints registered once: constrained rows and columns of the tangent are zeroed with 1 on the
+  diagonal (symmetric), the free rows keep K_ff; the residual rows of the constrained unknowns
+  become x_c - g_c; the lifting of the residual keeps the Newton step of row elimination.
 - Constrained unknowns outside the rank's range are rejected by name.
 """
 import numpy as np
 import pytest
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.discretization import Constraints, Discretization
@@ -31,21 +33,24 @@ def test_both_methods_fulfil_the_contract():
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("method", ["vem", "fem"])
-def test_registered_constraints_eliminate_rows(method):
+def test_registered_constraints_eliminate_rows_and_columns(method):
     disc = discretization(method)
     x, d = state(disc), direction(disc)
     A, A_c = disc.create_matrix(), disc.create_matrix()
     disc.jacobian(x, A)                                   # nothing registered: the plain tangent
     disc.set_constraints(disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0), component=1))
     disc.jacobian(x, A_c)
-    y, y_c = disc.create_vector(), disc.create_vector()
-    A.mult(d, y)
-    A_c.mult(d, y_c)
     c = disc.constraints.mask[:disc.n_owned_dofs]
     assert MPI.COMM_WORLD.allreduce(int(c.sum()), op=MPI.SUM) > 0
     assert np.array_equal(np.flatnonzero(c), disc.constraints.owned)
+    d_free = d.copy()
+    d_free.array[c] = 0.0
+    y, y_c = disc.create_vector(), disc.create_vector()
+    A.mult(d_free, y)                                     # K_ff d_f in the free rows
+    A_c.mult(d, y_c)
     assert np.allclose(y_c.array[c], d.array[c], rtol=0, atol=1e-14)
     assert np.allclose(y_c.array[~c], y.array[~c], rtol=1e-13, atol=1e-13 * np.abs(y.array).max())
+    assert A_c.isSymmetric(1e-12 * A_c.norm(PETSc.NormType.INFINITY))
 
     b = disc.create_vector()
     disc.residual(x, b)
@@ -54,6 +59,26 @@ def test_registered_constraints_eliminate_rows(method):
     disc.constraints.set_residual_rows(x, b, g)
     assert np.array_equal(b.array[c], x.array[c] - g)
     assert np.array_equal(b.array[~c], free)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_lifting_keeps_the_newton_step(method):
+    """The step d of the row-eliminated system (K_f d = b_f, d_c = r_c) solves the symmetric one."""
+    disc = discretization(method)
+    x, d = state(disc), direction(disc)
+    disc.set_constraints(disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0)))
+    c = disc.constraints.mask[:disc.n_owned_dofs]
+    A = disc.create_matrix()
+    disc.assemble_tangent(x, A)
+    b = disc.create_vector()
+    A.mult(d, b)
+    b.array[c] = d.array[c]                               # the row-eliminated system's right-hand side
+    disc.constraints.eliminate(A, b)
+    Ad = disc.create_vector()
+    A.mult(d, Ad)
+    assert np.abs(d.array[c]).max(initial=0.0) > 0 or not c.any()
+    assert np.allclose(Ad.array, b.array, rtol=0, atol=1e-12 * np.abs(b.array).max())
 
 
 def test_constraints_outside_the_local_unknowns_are_rejected():
