@@ -56,6 +56,11 @@ class Step:
         Wall time of the step [s].
     extra : dict name -> value
         The observers' values.
+    negative_pivots : int or None
+        Negative pivots of the last LDL^T factorization of the step's Newton solve, i.e. negative
+        eigenvalues of the free block of its last tangent: 0 on a stable branch, > 0 past a
+        limit or bifurcation point (None: LU or another linear solver, no factorization, or an
+        older file).
     """
 
     load: float
@@ -72,6 +77,7 @@ class Step:
     max_displacement: float | None = None
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = dataclasses.field(default_factory=dict)
+    negative_pivots: int | None = None
 
     def value(self, key: str) -> float | None:
         """An observer of ``extra``, else a numeric field of the step (e.g. ``max_displacement``);

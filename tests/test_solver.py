@@ -8,6 +8,8 @@
 - The default absolute tolerance scales with the moduli (the same iterations and solution for
   moduli and loads scaled by 1e-6 .. 1e6); a given ``snes_atol`` is used as is.
 - A boundary condition that selects no degree of freedom is an error naming it.
+- The negative pivots of the LDL^T factorization reported per step are the negative eigenvalues
+  of the tangent's free block (a strut before and past buckling); with LU none are reported.
 """
 import csv
 import functools
@@ -128,6 +130,46 @@ def test_each_state_is_assembled_once(monkeypatch):
     assert len(calls) == sum(s["newton_iterations"] for s in steps) + len(steps) + 1
     fresh = problem.reactions(problem._constraints()[2], 1.0)
     np.testing.assert_allclose(steps[-1]["reaction"]["top"], fresh["top"], rtol=1e-12, atol=1e-14)
+
+
+# ----------------------------------------------------------------------------- stability report
+STRUT_THICKNESS = 0.1
+
+
+def strut_problem(method: str) -> sf.ContactProblem:
+    """A clamped 0.1 x 1 strut (2 x 20 quads) shortened by 6 %: Euler's critical shortening of a
+    clamped-clamped strut is about (pi t / L)^2 / 3 = 3.3 %, the next mode's twice that."""
+    mesh = meshes.quad_rectangle(STRUT_THICKNESS, 1.0, 2, 20, tag=SOLID)
+    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, comm=COMM, verbose=False,
+                                method=method)
+    problem.fix(lambda x: np.isclose(x[1], 0.0), name="bottom")
+    problem.prescribe(lambda x: np.isclose(x[1], 1.0), ux=0.0, uy=-0.06, name="top")
+    return problem
+
+
+def negative_eigenvalues_of_free_block(problem: sf.ContactProblem) -> int:
+    """Negative eigenvalues of the dense free block K_ff of the tangent at the problem's state."""
+    disc = problem.disc
+    A = disc.create_matrix()
+    disc.assemble_tangent(problem.x, A)
+    free = disc.constraints.owned_free
+    return int((np.linalg.eigvalsh(A.convert("dense").getDenseArray()[np.ix_(free, free)]) < 0).sum())
+
+
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_negative_pivots_count_negative_eigenvalues(method):
+    """With the default LDL^T factorization every converged step reports its tangent's negative
+    pivots: none on the straight branch below the buckling load, one past it, as many as numpy
+    finds negative eigenvalues of the free block at the final state. With LU: not reported."""
+    problem = strut_problem(method)
+    result = problem.solve(6)
+    assert result.converged, result.message
+    pivots = [s["negative_pivots"] for s in converged(result.steps)]
+    assert pivots[:2] == [0, 0] and pivots[-1] >= 1, pivots
+    assert pivots[-1] == negative_eigenvalues_of_free_block(problem) == 1
+
+    lu = strut_problem(method).solve(2, petsc_options={"pc_type": "lu"})
+    assert [s["negative_pivots"] for s in converged(lu.steps)] == [None, None]
 
 
 # ----------------------------------------------------------------------------- cut-back
