@@ -46,6 +46,7 @@ from petsc4py import PETSc  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
 import dolfinx_sfvem.fem  # noqa: E402
 import dolfinx_sfvem.problem  # noqa: E402
+import dolfinx_sfvem.run_output  # noqa: E402
 import dolfinx_sfvem.solver  # noqa: E402
 import dolfinx_sfvem.vem  # noqa: E402
 
@@ -59,25 +60,33 @@ LINEAR_SOLVE_EVENTS = ("KSPSetUp", "PCSetUp", "KSPSolve")
 def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     """Wrap the functions doing the parts of a load step (module docstring)."""
     timer.patch(type(disc), "residual", "residual")
-    timer.patch(type(disc), "jacobian", "tangent")
+    timer.patch(type(disc), "assemble_tangent", "tangent")
     timer.patch(dolfinx_sfvem.solver.NewtonSolver, "_residual", "residual_snes")
     timer.patch(dolfinx_sfvem.vem, "folded_elements", "injectivity")
     timer.patch(dolfinx_sfvem.fem, "folded_elements", "injectivity")
     timer.patch(sf.ContactProblem, "_contact", "gap")
     timer.patch(sf.ContactProblem, "reactions", "reactions")
-    timer.patch(dolfinx_sfvem.problem._RunWriter, "step", "output")
-    timer.patch(dolfinx_sfvem.problem._RunWriter, "finish", "output_final")
+    timer.patch(dolfinx_sfvem.run_output.RunWriter, "step", "output")
+    timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")
 
 
-def compress_everywhere() -> None:
-    """Experiment ``--compress-medium``: NNLS-compressed rules (exact for degree 2l) also on the
-    third medium's non-parallelogram polygons, which the package gives the full sub-triangle rule."""
+def full_medium_rule() -> None:
+    """Experiment ``--full-medium-rule``: the third medium's non-parallelogram polygons keep the
+    full sub-triangle rule (compressed rules only in regions whose energy has no gradient term,
+    the solids), the package's rule before it compressed the medium too."""
     import dolfinx_sfvem.space
-    full = dolfinx_sfvem.space.compressed_polygon_quadrature
+    space_init = dolfinx_sfvem.space.VEMSpace.__init__
+    disc_init = dolfinx_sfvem.vem.SFVEMDiscretization.__init__
+    solids: list[int] = []
 
-    def everywhere(*args):
-        return full(*args[:8])
-    dolfinx_sfvem.space.compressed_polygon_quadrature = everywhere
+    def space_solids_only(self, mesh, *args, **kwargs):
+        space_init(self, mesh, *args, compress_tags=solids, **kwargs)
+
+    def disc_solids_only(self, mesh, materials, *args, **kwargs):
+        solids[:] = [tag for tag, energy in materials.items() if not energy.uses_gradient]
+        disc_init(self, mesh, materials, *args, **kwargs)
+    dolfinx_sfvem.space.VEMSpace.__init__ = space_solids_only
+    dolfinx_sfvem.vem.SFVEMDiscretization.__init__ = disc_solids_only
 
 
 def warm_up(problem: sf.ContactProblem) -> None:
@@ -85,8 +94,7 @@ def warm_up(problem: sf.ContactProblem) -> None:
     loading) is not in the load path's times; timed separately as ``first_assembly_s``."""
     disc = problem.disc
     disc.residual(problem.x, disc.create_vector())
-    constrained = np.zeros(disc.n_local_dofs, dtype=bool)
-    disc.jacobian(problem.x, disc.create_matrix(), constrained)
+    disc.assemble_tangent(problem.x, disc.create_matrix())
 
 
 def run(demo_argv: typing.Sequence[str], comm: MPI.Comm) -> dict:
@@ -134,11 +142,11 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     split = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=pathlib.Path, required=True, help="where rank 0 writes the measurements")
-    p.add_argument("--compress-medium", action="store_true",
-                   help="experiment: compressed quadrature in the medium too (compress_everywhere)")
+    p.add_argument("--full-medium-rule", action="store_true",
+                   help="experiment: full sub-triangle rule in the medium's general polygons (full_medium_rule)")
     args = p.parse_args(argv[:split])
-    if args.compress_medium:
-        compress_everywhere()
+    if args.full_medium_rule:
+        full_medium_rule()
     comm = MPI.COMM_WORLD
     record = run(argv[split + 1:], comm)
     if comm.rank == 0:
