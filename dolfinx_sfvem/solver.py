@@ -219,6 +219,7 @@ class NewtonSolver:
         #: (the last residual SNES evaluated, or :meth:`force_at`'s)
         self.force = disc.create_vector()
         self._unlifted = disc.create_vector()   # F before the lifting of the constraints (_jacobian)
+        self._lifted = False                     # SNES's F holds the lifted right-hand side
         self._force_state = disc.create_vector()
         self._force_info = None
         self.history: list[float] = []
@@ -243,6 +244,7 @@ class NewtonSolver:
             self.worst_info = info
         if self.f_ext is not None:
             b.axpy(-self.load, self.f_ext)
+        self._lifted = False
         b.copy(self.force)
         x.copy(self._force_state)
         self._force_info = info
@@ -262,14 +264,18 @@ class NewtonSolver:
         # into F for the linear solve; :meth:`_unlift` puts the residual back before the line search
         self.b.copy(self._unlifted)
         self.disc.constraints.eliminate(A, self.b)
+        self._lifted = True
         self._factorized = True
 
     def _unlift(self, x: PETSc.Vec, y: PETSc.Vec, *args) -> bool:
         """Line-search pre-check: the residual F at x back in place of the lifted right-hand side of
         the linear solve, so that the line search sees the residual whose norm SNES tests (its
         slope F·(A dx) is then exact up to F_f·K_fc r_c, zero when F_f or the prescribed
-        increment r_c is); the step dx (``y``) is left unchanged."""
-        self._unlifted.copy(self.b)
+        increment r_c is); the step dx (``y``) is left unchanged. Nothing to do when the
+        tangent was not recomputed since the last residual (a lagged Jacobian)."""
+        if self._lifted:
+            self._unlifted.copy(self.b)
+            self._lifted = False
         return False
 
     def _free_row_norm(self, A: PETSc.Mat) -> float:
