@@ -43,6 +43,9 @@ class Step:
     min_J : float or None
         Smallest det F over the quadrature points (None: not recorded, in files of older versions).
     kinked_elements : int
+    negative_pivots : int or None
+        Negative eigenvalues of the tangent at the last state Newton factorized (MUMPS LDL^T
+        inertia; None without it, and in files of older versions).
     failure : str
         Why a failed step failed ("" if converged).
     gap : dict or None
@@ -66,6 +69,7 @@ class Step:
     reaction: dict[str, list[float]] = dataclasses.field(default_factory=dict)
     min_J: float | None = None
     kinked_elements: int = 0
+    negative_pivots: int | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = dataclasses.field(default_factory=list)

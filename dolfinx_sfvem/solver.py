@@ -20,7 +20,7 @@ follows the round-off level of the residual,
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf,
 
 with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
-first tangent of every solve, before it the previous solve's), ``x`` the state, ``g`` the
+tangent of the start state of every solve), ``x`` the state, ``g`` the
 prescribed values, ``λ f_ext`` the external force and ``eps`` machine epsilon; ``atol`` is
 updated at every tangent. It is proportional to the moduli, so moduli and body forces scaled
 together give the same Newton iterations and solution. Why and what was measured:
@@ -46,7 +46,7 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
     "snes_stol": "0",
     "snes_max_it": "30",
     "ksp_type": "preonly",
-    "pc_type": "lu",
+    "pc_type": "cholesky",
     "pc_factor_mat_solver_type": "mumps",
     **_compat.PETSC_OPTION_DEFAULTS,
 }
@@ -127,6 +127,9 @@ class NewtonResult:
 
     ``failure`` says why the state is not accepted ("" when ``converged``): SNES's reason,
     J <= 0, a folded element, or (set by :class:`~dolfinx_sfvem.ContactProblem`) overlapping solids.
+    ``negative_pivots``: negative pivots of the last LDL^T factorization of the solve (MUMPS
+    INFOG(12)), i.e. the number of negative eigenvalues of the tangent with the constraints
+    eliminated, at the last state Newton factorized; None with another factorization.
     """
     converged: bool
     reason: int
@@ -138,6 +141,7 @@ class NewtonResult:
     folded: int = 0
     kinked: int = 0
     failure: str = ""
+    negative_pivots: int | None = None
 
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
@@ -197,8 +201,7 @@ class NewtonSolver:
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self.f_ext = f_ext
         self._f_ext_norm = f_ext.norm(PETSc.NormType.INFINITY) if f_ext is not None else 0.0
-        self._stiffness = 0.0       # ||K||_inf of the free rows, at the first tangent of the current solve
-        self._stiffness_current = False
+        self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
         self.load = 1.0
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
@@ -207,6 +210,9 @@ class NewtonSolver:
         self.force = disc.create_vector()
         self._force_state = disc.create_vector()
         self._force_info = None
+        self._start_state = disc.create_vector()
+        self._start_state_current = False     # A holds the eliminated tangent at _start_state
+        self._norm0: float | None = None      # ||F(x_0)|| of the current solve, for snes_rtol
         self.history: list[float] = []
         self.worst_info = None      # smallest J met at any trial point of the current solve
 
@@ -214,6 +220,7 @@ class NewtonSolver:
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
         snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
+        snes.setConvergenceTest(self._converged)
         self.options = dict(options or {})
         self.fallback = not (PETSc.Options().hasName("snes_linesearch_type")
                              or any(k.lstrip("-") == "snes_linesearch_type" for k in self.options))
@@ -232,20 +239,62 @@ class NewtonSolver:
         x.copy(self._force_state)
         self._force_info = info
         self.disc.constraints.set_residual_rows(x, b, self.g)
+        if self._norm0 is None:                  # the start state's residual without the lifting
+            self._norm0 = b.norm()
+        self.disc.constraints.apply_lifting(x, b, self.g)
         if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self.disc.jacobian(x, A)
+        if not self._start_tangent_at(x):
+            self.disc.jacobian(x, A)
+        self._start_state_current = False
         if self.scaled_atol:
-            if not self._stiffness_current:
-                self._stiffness = self._free_row_norm(A)
-                self._stiffness_current = True
             snes.setTolerances(atol=self.absolute_tolerance(x))
 
+    def _converged(self, snes: PETSc.SNES, it: int, norms: tuple[float, float, float]) -> int:
+        """SNES's default test (atol, rtol, stol, max_it, NaN), with rtol relative to the start
+        state's residual without the lifting of the constraints: the norm the row elimination
+        would have, so that the lifting does not loosen the relative tolerance."""
+        _xnorm, snorm, fnorm = norms
+        rtol, atol, stol, max_it = snes.getTolerances()
+        R = PETSc.SNES.ConvergedReason
+        if not np.isfinite(fnorm):
+            return R.DIVERGED_FNORM_NAN
+        if fnorm < atol:
+            return R.CONVERGED_FNORM_ABS
+        if it > 0 and fnorm <= rtol * self._norm0:
+            return R.CONVERGED_FNORM_RELATIVE
+        if it > 0 and snorm < stol * _xnorm:
+            return R.CONVERGED_SNORM_RELATIVE
+        if it >= max_it:
+            return R.DIVERGED_MAX_IT
+        return R.CONVERGED_ITERATING
+
+    def _start(self, x: PETSc.Vec) -> None:
+        """The tangent at the start state ``x`` of a solve: its free-row norm (tolerance), the
+        constraints' lifting (:meth:`Constraints.lift`), then eliminated into :attr:`A`, which the
+        first Jacobian evaluation (at this state) uses as it is (collective)."""
+        self.disc.assemble_tangent(x, self.A)
+        self._stiffness = self._free_row_norm(self.A)
+        self.disc.constraints.lift(self.A, x, self.g)
+        self.disc.constraints.eliminate(self.A)
+        x.copy(self._start_state)
+        self._start_state_current = True
+
+    def _start_tangent_at(self, x: PETSc.Vec) -> bool:
+        """Whether :attr:`A` holds the start tangent and ``x`` is the start state (collective)."""
+        if not self._start_state_current:
+            return False
+        diff = self._start_state.copy()
+        diff.axpy(-1.0, x)
+        same = diff.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+        diff.destroy()
+        return same
+
     def _free_row_norm(self, A: PETSc.Mat) -> float:
-        """Largest sum of absolute values over the free rows of A (the others are identity rows)."""
+        """Largest sum of absolute values over the free rows of A (collective)."""
         indptr, _, values = A.getValuesCSR()
         rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
         sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
@@ -256,9 +305,8 @@ class NewtonSolver:
         """The default absolute tolerance at the state x (collective).
 
         ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf)``
-        with ``||K||_inf`` of the free rows from the first tangent of the current solve (before it,
-        of the previous solve; 0 before any) and ``g``, ``λ`` of the current solve; see the
-        module docstring.
+        with ``||K||_inf`` of the free rows from the tangent at the start state of the current
+        solve (0 before any) and ``g``, ``λ`` of the current solve; see the module docstring.
         """
         g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
         force = self._stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + abs(self.load) * self._f_ext_norm
@@ -311,7 +359,8 @@ class NewtonSolver:
         self.load = load
         self.history = []
         self.worst_info = None
-        self._stiffness_current = False
+        self._norm0 = None
+        self._start(x)
         if self.scaled_atol:
             self.snes.setTolerances(atol=self.absolute_tolerance(x))
         self.snes.solve(None, x)
@@ -325,7 +374,17 @@ class NewtonSolver:
         failure = "" if ok else _failure(reason, info, self.history, atol,
                                          atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure)
+                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
+                            self.negative_pivots())
+
+    def negative_pivots(self) -> int | None:
+        """Negative pivots of the last factorization if it was MUMPS LDL^T (``pc_type cholesky``,
+        the default): INFOG(12), the number of negative eigenvalues of the factorized tangent
+        (Sylvester's law of inertia); None for any other linear solver or before a factorization."""
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() != "cholesky" or pc.getFactorSolverType() != "mumps" or self.snes.getIterationNumber() == 0:
+            return None
+        return int(pc.getFactorMatrix().getMumpsInfog(12))
 
 
 @dataclass
@@ -351,6 +410,7 @@ class StepRecord:
     reaction: dict[str, list[float]] = field(default_factory=dict)
     min_J: float = float("nan")
     kinked_elements: int = 0
+    negative_pivots: int | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = field(default_factory=list)

@@ -130,6 +130,39 @@ def test_each_state_is_assembled_once(monkeypatch):
     np.testing.assert_allclose(steps[-1]["reaction"]["top"], fresh["top"], rtol=1e-12, atol=1e-14)
 
 
+def strut(strain: float) -> sf.ContactProblem:
+    """A clamped 1 x 0.05 strut (40 x 2 quads) shortened by ``strain``: it stays straight (the
+    symmetric solution), Euler buckling at a strain of about pi^2 h^2 / (3 L^2) = 0.8 % (first
+    mode) and 1.7 % (second) makes that state unstable."""
+    mesh = meshes.quad_rectangle(1.0, 0.05, 40, 2, tag=SOLID)
+    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, comm=COMM, verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0), name="left")
+    problem.prescribe(lambda x: np.isclose(x[0], 1.0), ux=-strain, uy=0.0, name="right")
+    return problem
+
+
+@pytest.mark.mpi
+def test_negative_pivots_count_the_unstable_modes():
+    """With the default LDL^T factorization every step reports the tangent's negative
+    eigenvalues: none before buckling, one past the first critical strain, two past the second;
+    on one rank the count equals that of the dense tangent's eigenvalues."""
+    for strain, expected in ((0.004, [0, 0, 0, 0]), (0.012, [0, 0, 1, 1]), (0.02, [0, 1, 1, 2])):
+        problem = strut(strain)
+        result = problem.solve(4)
+        assert result.converged, result.message
+        assert [s["negative_pivots"] for s in result.steps] == expected, strain
+        if COMM.size == 1:
+            A = problem.disc.create_matrix()
+            problem.disc.jacobian(problem.x, A)
+            K = A.convert("dense").getDenseArray()
+            assert int((np.linalg.eigvalsh((K + K.T) / 2) < 0).sum()) == expected[-1]
+
+
+def test_negative_pivots_need_ldlt():
+    result = strut(0.012).solve(2, petsc_options={"pc_type": "lu"})
+    assert result.converged and all(s["negative_pivots"] is None for s in result.steps)
+
+
 # ----------------------------------------------------------------------------- cut-back
 def test_failed_step_is_cut_back():
     """With at most 4 Newton iterations the single full step fails; the stepper retries from the
