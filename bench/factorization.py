@@ -79,12 +79,12 @@ def measure(demo_argv: typing.Sequence[str], repeats: int) -> dict:
     args = common.parse_args(demo.make_parser(), [*argv, "--quiet"])
     problem, _ = demo.build(args)
     result = problem.solve(args.steps, out=None)
-    constrained, _, _ = problem._constraints()
     disc = problem.disc
+    disc.set_constraints(problem._constraints()[0])
     A = disc.create_matrix()
     problem.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    disc.jacobian(problem.x, A, constrained)
-    K = free_block(A, constrained[:disc.n_owned_dofs])
+    disc.jacobian(problem.x, A)
+    K = free_block(A, disc.constraints.mask[:disc.n_owned_dofs])
     K.setOption(PETSc.Mat.Option.SYMMETRIC, True)
     K.setOption(PETSc.Mat.Option.SPD, False)
     n, nnz = K.getSize()[0], K.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]

@@ -46,6 +46,7 @@ from petsc4py import PETSc  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
 import dolfinx_sfvem.fem  # noqa: E402
 import dolfinx_sfvem.problem  # noqa: E402
+import dolfinx_sfvem.run_output  # noqa: E402
 import dolfinx_sfvem.solver  # noqa: E402
 import dolfinx_sfvem.vem  # noqa: E402
 
@@ -59,14 +60,14 @@ LINEAR_SOLVE_EVENTS = ("KSPSetUp", "PCSetUp", "KSPSolve")
 def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     """Wrap the functions doing the parts of a load step (module docstring)."""
     timer.patch(type(disc), "residual", "residual")
-    timer.patch(type(disc), "jacobian", "tangent")
+    timer.patch(type(disc), "assemble_tangent", "tangent")
     timer.patch(dolfinx_sfvem.solver.NewtonSolver, "_residual", "residual_snes")
     timer.patch(dolfinx_sfvem.vem, "folded_elements", "injectivity")
     timer.patch(dolfinx_sfvem.fem, "folded_elements", "injectivity")
     timer.patch(sf.ContactProblem, "_contact", "gap")
     timer.patch(sf.ContactProblem, "reactions", "reactions")
-    timer.patch(dolfinx_sfvem.problem._RunWriter, "step", "output")
-    timer.patch(dolfinx_sfvem.problem._RunWriter, "finish", "output_final")
+    timer.patch(dolfinx_sfvem.run_output.RunWriter, "step", "output")
+    timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")
 
 
 def compress_everywhere() -> None:
@@ -85,8 +86,7 @@ def warm_up(problem: sf.ContactProblem) -> None:
     loading) is not in the load path's times; timed separately as ``first_assembly_s``."""
     disc = problem.disc
     disc.residual(problem.x, disc.create_vector())
-    constrained = np.zeros(disc.n_local_dofs, dtype=bool)
-    disc.jacobian(problem.x, disc.create_matrix(), constrained)
+    disc.assemble_tangent(problem.x, disc.create_matrix())
 
 
 def run(demo_argv: typing.Sequence[str], comm: MPI.Comm) -> dict:
