@@ -11,6 +11,7 @@ import fnmatch
 import math
 import os
 import pathlib
+import re
 import platform
 import shutil
 import statistics
@@ -55,6 +56,9 @@ def read_notes(path: pathlib.Path) -> dict[str, str]:
             lines.append(text)
     return {heading: "\n".join(body).strip("\n") for heading, body in sections.items()}
 
+
+#: studies outside the paper's examples (kept by hand from their own demos), included verbatim
+STUDIES = REPO / "docs" / "results-studies.md"
 
 _NOTES = read_notes(NOTES)
 #: what the FEM reference is, at the top of the page
@@ -641,6 +645,7 @@ def report(runs: typing.Sequence[Run], root: pathlib.Path, docs: pathlib.Path, q
             box_lines, checks = box_tables(root, docs)
             lines += box_lines
         lines += example_section(example, by_name, root, docs)
+    lines += [re.sub(r"<!--.*?-->\s*", "", STUDIES.read_text(), flags=re.S).rstrip(), ""]
     lines += ["## 1 rank vs N ranks", ""] + rank_section(runs, root)
     lines += ["## Where we differ from the paper and why", ""] + differences(runs, root)
     lines += ["## Reproduce", "", "```", "make results                 # everything (hours; restartable)",

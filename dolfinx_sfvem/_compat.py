@@ -14,8 +14,8 @@ kernel's argument count), never by comparing version strings. The rest of the pa
 - JIT compilation of a UFL expression into a C function and the call of that function from
   Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`),
 - PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES domain errors), called
-  through ctypes on the object handles, option defaults that keep PETSc's behaviour
-  (:data:`PETSC_OPTION_DEFAULTS`) and MUMPS's inertia (:func:`mumps_negative_pivots`),
+  through ctypes on the object handles, and option defaults that keep PETSc's behaviour
+  (:data:`PETSC_OPTION_DEFAULTS`),
 - for the P2 FEM reference: cell and facet tags, basix quadrature rules and compiled expressions.
 
 With the ``dolfinx-solver-real`` wheel, ``dolfinx_solver`` must be imported before any
@@ -343,18 +343,6 @@ def _libpetsc() -> ctypes.CDLL:
 PETSC_OPTION_DEFAULTS: dict[str, str] = (
     {"snes_linesearch_atol": "0"}
     if hasattr(getattr(getattr(PETSc, "SNESLineSearch", None), "Type", None), "SECANT") else {})
-
-
-def mumps_negative_pivots(pc: PETSc.PC) -> int | None:
-    """Negative pivots of the symmetric (LDL^T) MUMPS factorization of ``pc`` (``INFOG(12)``, the
-    same on every rank); None unless ``pc`` is a set-up ``cholesky`` with MUMPS. petsc4py 3.18 and
-    3.25 both wrap ``MatMumpsGetInfog``; a factorization that failed reads as None."""
-    if pc.getType() != PETSc.PC.Type.CHOLESKY or pc.getFactorSolverType() != "mumps":
-        return None
-    try:
-        return int(pc.getFactorMatrix().getMumpsInfog(12))
-    except PETSc.Error:
-        return None
 
 
 def _check(err: int, what: str) -> None:

@@ -95,20 +95,21 @@ def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> n
 
 
 class Constraints:
-    """Dirichlet constraints u_c = g_c, imposed by symmetric elimination.
+    """Dirichlet constraints u_c = g_c, imposed by symmetric elimination with lifting.
 
-    The residual of a constrained unknown is ``r_c = x_c - g_c``. In the tangent the rows *and
-    columns* of the constrained unknowns are zeroed with 1 on the diagonal, and the free rows of
-    the residual get the lifting ``b_f -= K_fc r_c``. The eliminated system
+    Newton's step of a load step moves the constrained unknowns to their new values, δ_c =
+    x_c - g_c, and the free rows carry the consistent response K_ff δ_f = F_f - K_fc δ_c
+    (docs/method.md §6). The tangent keeps this symmetric: the rows *and columns* of the
+    constrained unknowns become identity rows and columns, and the coupling K_fc δ_c moves to
+    the residual (the lifting, :meth:`lift`), so that a symmetric factorization (MUMPS LDL^T)
+    can be used and reports the tangent's inertia. The state is never overwritten with the
+    new boundary values before a solve. This class is the only place that knows how
+    constraints enter the linear system.
 
-        [K_ff  0] [dx_f]   [b_f - K_fc r_c]
-        [0     I] [dx_c] = [r_c           ]
-
-    has the Newton step of the row-eliminated one (``dx_c = r_c``, ``K_ff dx_f + K_fc dx_c = b_f``),
-    so the first Newton step of a load step moves the constrained unknowns to their new values and
-    the free rows carry the consistent response (docs/method.md §6), while the matrix stays
-    symmetric (a symmetric factorization applies; its inertia is K_ff's plus k positive ones).
-    This class is the only place that knows how constraints enter the linear system.
+    The lifting is taken with the tangent at the start of a solve, K_fc(x_0) (x_0,c - g). Along
+    Newton's iterates x_c - g only shrinks by the line search's factors (δ_c = x_c - g), so
+    the residual's lifting at a later state is that vector scaled by s = (x_c - g)·d_0 / d_0·d_0,
+    d_0 = x_0,c - g: zero once a full step has been taken.
 
     Parameters
     ----------
@@ -127,33 +128,52 @@ class Constraints:
         #: owned constrained and owned free unknowns (local indices)
         self.owned = np.flatnonzero(self.mask[:n_owned])
         self.owned_free = np.flatnonzero(~self.mask[:n_owned])
+        self._lifting: PETSc.Vec | None = None     # K_fc(x_0) d_0 on the free rows, 0 on the constrained
+        self._d0 = np.zeros(0)                     # d_0 = x_0,c - g on the owned constrained unknowns
+        self._d0_dot = 0.0                         # d_0 · d_0 over all ranks
+
+    def _values(self, x: PETSc.Vec) -> np.ndarray:
+        """The owned constrained values of x, (len(owned),)."""
+        with x.localForm() as xl:
+            return xl.array_r[self.owned].copy()
+
+    def lift(self, K: PETSc.Mat, x0: PETSc.Vec, g: np.ndarray) -> None:
+        """Take the lifting of a solve that starts at ``x0`` with prescribed values ``g``
+        (len(owned),): K_fc(x_0) (x_0,c - g) from the assembled tangent ``K`` at x0, constraints
+        not yet applied (collective)."""
+        self._d0 = self._values(x0) - g
+        d = K.createVecRight()
+        d.set(0.0)
+        d.getArray()[self.owned] = self._d0
+        self._lifting = K.createVecLeft()
+        K.mult(d, self._lifting)
+        self._lifting.getArray()[self.owned] = 0.0
+        self._d0_dot = d.dot(d)
+        d.destroy()
 
     def set_residual_rows(self, x: PETSc.Vec, b: PETSc.Vec, g: np.ndarray) -> None:
         """b_c = x_c - g_c on the owned constrained rows; ``g`` (len(owned),) the prescribed values."""
-        with x.localForm() as xl:
-            xc = xl.array_r[self.owned]
-        b.getArray()[self.owned] = xc - g
+        b.getArray()[self.owned] = self._values(x) - g
 
-    def eliminate(self, A: PETSc.Mat, b: PETSc.Vec | None = None) -> None:
-        """Constrained rows and columns of the assembled tangent A zeroed, 1 on the diagonal.
-
-        Parameters
-        ----------
-        A
-            The tangent, assembled; keeps its nonzero pattern and holds its diagonal in it.
-        b
-            The residual at the same state with its constrained rows set (:meth:`set_residual_rows`),
-            or None. Given, its free rows get the lifting ``b_f -= K_fc r_c`` with the K_fc of A
-            before the elimination (collective).
-        """
-        rows = (A.getOwnershipRange()[0] + self.owned).astype(PETSc.IntType)
-        if b is None:
-            A.zeroRowsColumns(rows, diag=1.0)
+    def apply_lifting(self, x: PETSc.Vec, b: PETSc.Vec, g: np.ndarray) -> None:
+        """The free rows of b less the lifting scaled to the state x (class docstring): the
+        residual that goes with the symmetrically eliminated tangent (collective)."""
+        if self._lifting is None or self._d0_dot == 0.0:
             return
-        r = b.duplicate()
-        b.copy(r)
-        A.zeroRowsColumns(rows, 1.0, r, b)
-        r.destroy()
+        offset = self._values(x) - g
+        s = b.getComm().tompi4py().allreduce(float(offset @ self._d0), op=MPI.SUM) / self._d0_dot
+        if s != 0.0:
+            b.axpy(-s, self._lifting)
+
+    def eliminate(self, A: PETSc.Mat) -> None:
+        """Constrained rows and columns of the assembled tangent A become identity rows and
+        columns (symmetric elimination; the coupling goes to the residual by :meth:`lift`).
+
+        A must keep its nonzero pattern when rows are zeroed (``KEEP_NONZERO_PATTERN``) and hold
+        its diagonal in the pattern.
+        """
+        rows = A.getOwnershipRange()[0] + self.owned
+        A.zeroRowsColumns(rows.astype(PETSc.IntType), diag=1.0)
 
 
 class Discretization(abc.ABC):
@@ -228,8 +248,8 @@ class Discretization(abc.ABC):
         """Tangent ∂²W/∂u² at x into A, assembled, constraints not applied (collective)."""
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Tangent at x into A with the rows and columns of the constrained unknowns
-        (:meth:`set_constraints`) eliminated by :class:`Constraints` (collective)."""
+        """Tangent at x into A with the rows of the constrained unknowns (:meth:`set_constraints`)
+        eliminated by :class:`Constraints` (collective)."""
         self.assemble_tangent(x, A)
         self.constraints.eliminate(A)
 

@@ -53,24 +53,24 @@ def json_default(obj):
 
 
 def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mapping]) -> None:
-    """One row per converged step: step, load, Newton iterations, negative pivots of the last
-    tangent (empty where not measured), smallest gap between the solids
-    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), reactions,
+    """One row per converged step: step, load, Newton iterations, smallest gap between the solids
+    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), negative
+    pivots of the tangent (``negative_pivots``, empty without an LDL^T factorization), reactions,
     per pair of bodies b-c in contact the medium's force on b, its largest pressure and the contact
     zone's length (``contact_b-c_Fx``, ``_Fy``, ``_p_max``, ``_zone``), extras."""
     rows = [s for s in steps if s["converged"]]
     names = sorted({n for s in rows for n in s.get("reaction", {})})
     extras = sorted({k for s in rows for k in s.get("extra", {})})
     pairs = sorted({(c["body"], c["partner_body"]) for s in rows for c in s.get("contact", [])})
-    header = ["step", "load", "newton_iterations", "negative_pivots", "gap", "gap_x", "gap_y"] + \
+    header = ["step", "load", "newton_iterations", "gap", "gap_x", "gap_y", "negative_pivots"] + \
         [f"{n}_R{c}" for n in names for c in "xy"] + \
         [f"contact_{b}-{c}_{q}" for b, c in pairs for q in ("Fx", "Fy", "p_max", "zone")] + extras
     lines = []
     for s in rows:
         gap = s.get("gap") or {}
         contact = {(c["body"], c["partner_body"]): c for c in s.get("contact", [])}
-        r = [s["step"], s["load"], s["newton_iterations"], s.get("negative_pivots"), gap.get("value"),
-             *gap.get("x", [None, None])]
+        r = [s["step"], s["load"], s["newton_iterations"], gap.get("value"), *gap.get("x", [None, None]),
+             s.get("negative_pivots")]
         r += [s["reaction"].get(n, [np.nan, np.nan])[c] for n in names for c in range(2)]
         r += [value for pair in pairs for value in
               ([*contact[pair]["force"], contact[pair]["max_pressure"], contact[pair]["zone_length"]]

@@ -471,8 +471,8 @@ class ContactProblem:
         res = attempt.result
         rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
                          residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
-                         kinked_elements=res.kinked, failure=res.failure, wall_time_s=attempt.wall_time_s,
-                         negative_pivots=res.negative_pivots)
+                         kinked_elements=res.kinked, negative_pivots=res.negative_pivots, failure=res.failure,
+                         wall_time_s=attempt.wall_time_s)
         if attempt.converged:
             gap, pressure = self._attempt_contact
             rec.gap = gap.as_dict()

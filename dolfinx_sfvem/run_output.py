@@ -105,17 +105,17 @@ def read_checkpoint(out: pathlib.Path, steps: int, summary_now: typing.Mapping[s
 
 
 def progress_line(rec: StepRecord) -> str:
-    """One line per converged step: Newton, J, gap, negative pivots of the tangent (when any), time
-    and the first prescribed condition's reaction (the full record is in summary.json and
+    """One line per converged step: Newton, J, gap, negative pivots of the tangent (when any),
+    time and the first prescribed condition's reaction (the full record is in summary.json and
     load_path.csv)."""
     res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
     gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
     kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
-    unstable = f"  neg. pivots {rec.negative_pivots}" if rec.negative_pivots else ""
+    kinked += f"  negative pivots {rec.negative_pivots}" if rec.negative_pivots else ""
     loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
     reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
     return (f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}{unstable}  {rec.wall_time_s:6.2f} s{reaction}")
+            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s{reaction}")
 
 
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:

@@ -43,6 +43,9 @@ class Step:
     min_J : float or None
         Smallest det F over the quadrature points (None: not recorded, in files of older versions).
     kinked_elements : int
+    negative_pivots : int or None
+        Negative eigenvalues of the tangent at the last state Newton factorized (MUMPS LDL^T
+        inertia; None without it, and in files of older versions).
     failure : str
         Why a failed step failed ("" if converged).
     gap : dict or None
@@ -56,11 +59,6 @@ class Step:
         Wall time of the step [s].
     extra : dict name -> value
         The observers' values.
-    negative_pivots : int or None
-        Negative pivots of the last LDL^T factorization of the step's Newton solve, i.e. negative
-        eigenvalues of the free block of its last tangent: 0 on a stable branch, > 0 past a
-        limit or bifurcation point (None: LU or another linear solver, no factorization, or an
-        older file).
     """
 
     load: float
@@ -71,13 +69,13 @@ class Step:
     reaction: dict[str, list[float]] = dataclasses.field(default_factory=dict)
     min_J: float | None = None
     kinked_elements: int = 0
+    negative_pivots: int | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = dataclasses.field(default_factory=list)
     max_displacement: float | None = None
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = dataclasses.field(default_factory=dict)
-    negative_pivots: int | None = None
 
     def value(self, key: str) -> float | None:
         """An observer of ``extra``, else a numeric field of the step (e.g. ``max_displacement``);

@@ -4,16 +4,7 @@ Dirichlet conditions enter through the Newton update (docs/method.md §6), by th
 registered on the discretization (:class:`~dolfinx_sfvem.discretization.Constraints`): the
 first Newton step of a load step moves the constrained unknowns to their new values ``g``
 and the free rows of the tangent carry the consistent response. The state is never
-overwritten with the new boundary values before a solve. The constraints are eliminated
-symmetrically (rows and columns, the prescribed increment lifted into the residual), so the
-tangent of the energy stays symmetric.
-
-Default linear solver: MUMPS's LDL^T factorization for symmetric indefinite matrices
-(``pc_type cholesky``, MUMPS ``SYM = 2``); ``pc_type lu`` (or any other) can be given. With
-LDL^T the number of negative pivots (MUMPS ``INFOG(12)``) is, by Sylvester's law of inertia,
-the number of negative eigenvalues of the free block K_ff of the factorized tangent: reported as
-:attr:`NewtonResult.negative_pivots`, it shows where the load path passes a limit or
-bifurcation point (docs/performance.md).
+overwritten with the new boundary values before a solve.
 
 Default line search: ``bt`` (one residual per Newton iteration when the full step is
 acceptable), and a solve that fails with it is repeated once from its start with
@@ -29,7 +20,7 @@ follows the round-off level of the residual,
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf,
 
 with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
-first tangent of every solve, before it the previous solve's), ``x`` the state, ``g`` the
+tangent of the start state of every solve), ``x`` the state, ``g`` the
 prescribed values, ``λ f_ext`` the external force and ``eps`` machine epsilon; ``atol`` is
 updated at every tangent. It is proportional to the moduli, so moduli and body forces scaled
 together give the same Newton iterations and solution. Why and what was measured:
@@ -136,6 +127,9 @@ class NewtonResult:
 
     ``failure`` says why the state is not accepted ("" when ``converged``): SNES's reason,
     J <= 0, a folded element, or (set by :class:`~dolfinx_sfvem.ContactProblem`) overlapping solids.
+    ``negative_pivots``: negative pivots of the last LDL^T factorization of the solve (MUMPS
+    INFOG(12)), i.e. the number of negative eigenvalues of the tangent with the constraints
+    eliminated, at the last state Newton factorized; None with another factorization.
     """
     converged: bool
     reason: int
@@ -147,7 +141,7 @@ class NewtonResult:
     folded: int = 0
     kinked: int = 0
     failure: str = ""
-    negative_pivots: int | None = None  # of the last factorized tangent; None: not LDL^T or none factorized
+    negative_pivots: int | None = None
 
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
@@ -207,21 +201,18 @@ class NewtonSolver:
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self.f_ext = f_ext
         self._f_ext_norm = f_ext.norm(PETSc.NormType.INFINITY) if f_ext is not None else 0.0
-        self._stiffness = 0.0       # ||K||_inf of the free rows, at the first tangent of the current solve
-        self._stiffness_current = False
-        self._factorized = False    # a tangent was factorized in the current solve
+        self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
         self.load = 1.0
         self.A = disc.create_matrix()
-        self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)   # the Hessian of an energy, constraints
-        self.A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)  # eliminated symmetrically
         self.b = disc.create_vector()
         #: internal minus external force at the state ``_force_state``, constraints not applied
         #: (the last residual SNES evaluated, or :meth:`force_at`'s)
         self.force = disc.create_vector()
-        self._unlifted = disc.create_vector()   # F before the lifting of the constraints (_jacobian)
-        self._lifted = False                     # SNES's F holds the lifted right-hand side
         self._force_state = disc.create_vector()
         self._force_info = None
+        self._start_state = disc.create_vector()
+        self._start_state_current = False     # A holds the eliminated tangent at _start_state
+        self._norm0: float | None = None      # ||F(x_0)|| of the current solve, for snes_rtol
         self.history: list[float] = []
         self.worst_info = None      # smallest J met at any trial point of the current solve
 
@@ -229,13 +220,13 @@ class NewtonSolver:
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
         snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
+        snes.setConvergenceTest(self._converged)
         self.options = dict(options or {})
         self.fallback = not (PETSc.Options().hasName("snes_linesearch_type")
                              or any(k.lstrip("-") == "snes_linesearch_type" for k in self.options))
         with _scoped_options(options):
             snes.setFromOptions()
             self.scaled_atol = not PETSc.Options().hasName("snes_atol")
-        snes.setLineSearchPreCheck(self._unlift)
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -244,42 +235,66 @@ class NewtonSolver:
             self.worst_info = info
         if self.f_ext is not None:
             b.axpy(-self.load, self.f_ext)
-        self._lifted = False
         b.copy(self.force)
         x.copy(self._force_state)
         self._force_info = info
         self.disc.constraints.set_residual_rows(x, b, self.g)
+        if self._norm0 is None:                  # the start state's residual without the lifting
+            self._norm0 = b.norm()
+        self.disc.constraints.apply_lifting(x, b, self.g)
         if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self.disc.assemble_tangent(x, A)
+        if not self._start_tangent_at(x):
+            self.disc.jacobian(x, A)
+        self._start_state_current = False
         if self.scaled_atol:
-            if not self._stiffness_current:
-                self._stiffness = self._free_row_norm(A)
-                self._stiffness_current = True
             snes.setTolerances(atol=self.absolute_tolerance(x))
-        # SNES solves A dx = F with its F at x (self.b, just evaluated): lift the prescribed increments
-        # into F for the linear solve; :meth:`_unlift` puts the residual back before the line search
-        self.b.copy(self._unlifted)
-        self.disc.constraints.eliminate(A, self.b)
-        self._lifted = True
-        self._factorized = True
 
-    def _unlift(self, x: PETSc.Vec, y: PETSc.Vec, *args) -> bool:
-        """Line-search pre-check: the residual F at x back in place of the lifted right-hand side of
-        the linear solve, so that the line search sees the residual whose norm SNES tests (its
-        slope F·(A dx) is then exact up to F_f·K_fc r_c, zero when F_f or the prescribed
-        increment r_c is); the step dx (``y``) is left unchanged. Nothing to do when the
-        tangent was not recomputed since the last residual (a lagged Jacobian)."""
-        if self._lifted:
-            self._unlifted.copy(self.b)
-            self._lifted = False
-        return False
+    def _converged(self, snes: PETSc.SNES, it: int, norms: tuple[float, float, float]) -> int:
+        """SNES's default test (atol, rtol, stol, max_it, NaN), with rtol relative to the start
+        state's residual without the lifting of the constraints: the norm the row elimination
+        would have, so that the lifting does not loosen the relative tolerance."""
+        _xnorm, snorm, fnorm = norms
+        rtol, atol, stol, max_it = snes.getTolerances()
+        R = PETSc.SNES.ConvergedReason
+        if not np.isfinite(fnorm):
+            return R.DIVERGED_FNORM_NAN
+        if fnorm < atol:
+            return R.CONVERGED_FNORM_ABS
+        if it > 0 and fnorm <= rtol * self._norm0:
+            return R.CONVERGED_FNORM_RELATIVE
+        if it > 0 and snorm < stol * _xnorm:
+            return R.CONVERGED_SNORM_RELATIVE
+        if it >= max_it:
+            return R.DIVERGED_MAX_IT
+        return R.CONVERGED_ITERATING
+
+    def _start(self, x: PETSc.Vec) -> None:
+        """The tangent at the start state ``x`` of a solve: its free-row norm (tolerance), the
+        constraints' lifting (:meth:`Constraints.lift`), then eliminated into :attr:`A`, which the
+        first Jacobian evaluation (at this state) uses as it is (collective)."""
+        self.disc.assemble_tangent(x, self.A)
+        self._stiffness = self._free_row_norm(self.A)
+        self.disc.constraints.lift(self.A, x, self.g)
+        self.disc.constraints.eliminate(self.A)
+        x.copy(self._start_state)
+        self._start_state_current = True
+
+    def _start_tangent_at(self, x: PETSc.Vec) -> bool:
+        """Whether :attr:`A` holds the start tangent and ``x`` is the start state (collective)."""
+        if not self._start_state_current:
+            return False
+        diff = self._start_state.copy()
+        diff.axpy(-1.0, x)
+        same = diff.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+        diff.destroy()
+        return same
 
     def _free_row_norm(self, A: PETSc.Mat) -> float:
-        """Largest sum of absolute values over the free rows of the tangent A (before elimination)."""
+        """Largest sum of absolute values over the free rows of A (collective)."""
         indptr, _, values = A.getValuesCSR()
         rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
         sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
@@ -290,9 +305,8 @@ class NewtonSolver:
         """The default absolute tolerance at the state x (collective).
 
         ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf)``
-        with ``||K||_inf`` of the free rows from the first tangent of the current solve (before it,
-        of the previous solve; 0 before any) and ``g``, ``λ`` of the current solve; see the
-        module docstring.
+        with ``||K||_inf`` of the free rows from the tangent at the start state of the current
+        solve (0 before any) and ``g``, ``λ`` of the current solve; see the module docstring.
         """
         g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
         force = self._stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + abs(self.load) * self._f_ext_norm
@@ -338,7 +352,6 @@ class NewtonSolver:
         """Set SNES up again from this solver's options with the line search ``kind``."""
         with _scoped_options({**self.options, "snes_linesearch_type": kind}):
             self.snes.setFromOptions()
-        self.snes.setLineSearchPreCheck(self._unlift)
 
     def _solve_once(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
         """One SNES solve from ``x`` with the line search as set (see :meth:`solve`)."""
@@ -346,8 +359,8 @@ class NewtonSolver:
         self.load = load
         self.history = []
         self.worst_info = None
-        self._stiffness_current = False
-        self._factorized = False
+        self._norm0 = None
+        self._start(x)
         if self.scaled_atol:
             self.snes.setTolerances(atol=self.absolute_tolerance(x))
         self.snes.solve(None, x)
@@ -362,13 +375,16 @@ class NewtonSolver:
                                          atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
-                            self.negative_pivots() if self._factorized else None)
+                            self.negative_pivots())
 
     def negative_pivots(self) -> int | None:
-        """Negative pivots of the last LDL^T factorization of the tangent (MUMPS ``INFOG(12)``, global),
-        the number of negative eigenvalues of its free block; None unless the linear solver is
-        MUMPS's symmetric factorization."""
-        return _compat.mumps_negative_pivots(self.snes.getKSP().getPC())
+        """Negative pivots of the last factorization if it was MUMPS LDL^T (``pc_type cholesky``,
+        the default): INFOG(12), the number of negative eigenvalues of the factorized tangent
+        (Sylvester's law of inertia); None for any other linear solver or before a factorization."""
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() != "cholesky" or pc.getFactorSolverType() != "mumps" or self.snes.getIterationNumber() == 0:
+            return None
+        return int(pc.getFactorMatrix().getMumpsInfog(12))
 
 
 @dataclass
@@ -394,13 +410,13 @@ class StepRecord:
     reaction: dict[str, list[float]] = field(default_factory=dict)
     min_J: float = float("nan")
     kinked_elements: int = 0
+    negative_pivots: int | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = field(default_factory=list)
     max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)
-    negative_pivots: int | None = None
 
 
 class LoadStepper:

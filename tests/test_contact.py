@@ -186,7 +186,7 @@ def test_cbox_gap_is_recorded_per_step(tmp_path):
     gaps = [s["gap"]["value"] for s in summary["steps"]]
     assert gaps[0] < 0.3 and all(np.diff(gaps) < 0) and gaps[-1] > 0     # the beams approach
     header = (tmp_path / "load_path.csv").read_text().splitlines()[0].split(",")
-    assert header[3:7] == ["negative_pivots", "gap", "gap_x", "gap_y"]
+    assert header[3:6] == ["gap", "gap_x", "gap_y"]
     # pressure plots at the first steps reaching 0.5 and 0.6 (loads 0.5 and 0.75) and at the end
     plots = sorted(f.name for f in tmp_path.glob("contact_pressure*.png"))
     assert plots == ["contact_pressure.png", "contact_pressure_0.5.png", "contact_pressure_0.75.png"]

@@ -123,6 +123,10 @@ def test_page_tables(page):
     # the rank check compares the 1-rank run with the 2-rank one
     assert "| cbox-mesh1-vem | 2 | 1 | 1 | 2 | 2 | 0.0e+00 |" in text
     assert "(docs/figures)" not in text and (docs / "figures" / "cbox-curves.png").is_file()
+    # the hand-kept studies follow the paper's examples, without their editing note
+    studies = [line for line in results_report.STUDIES.read_text().splitlines() if line.startswith("## ")]
+    assert studies and all(h in text for h in studies) and "<!--" not in text
+    assert text.index(studies[0]) < text.index("## 1 rank vs N ranks")
 
 
 def test_page_lists_missing_and_short_runs(page):
