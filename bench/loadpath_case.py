@@ -70,17 +70,6 @@ def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")
 
 
-def compress_everywhere() -> None:
-    """Experiment ``--compress-medium``: NNLS-compressed rules (exact for degree 2l) also on the
-    third medium's non-parallelogram polygons, which the package gives the full sub-triangle rule."""
-    import dolfinx_sfvem.space
-    full = dolfinx_sfvem.space.compressed_polygon_quadrature
-
-    def everywhere(*args):
-        return full(*args[:8])
-    dolfinx_sfvem.space.compressed_polygon_quadrature = everywhere
-
-
 def warm_up(problem: sf.ContactProblem) -> None:
     """One residual and one tangent at the initial state, so that numba's compilation (or cache
     loading) is not in the load path's times; timed separately as ``first_assembly_s``."""
@@ -134,11 +123,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     split = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=pathlib.Path, required=True, help="where rank 0 writes the measurements")
-    p.add_argument("--compress-medium", action="store_true",
-                   help="experiment: compressed quadrature in the medium too (compress_everywhere)")
     args = p.parse_args(argv[:split])
-    if args.compress_medium:
-        compress_everywhere()
     comm = MPI.COMM_WORLD
     record = run(argv[split + 1:], comm)
     if comm.rank == 0:

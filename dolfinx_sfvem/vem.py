@@ -68,10 +68,8 @@ class SFVEMDiscretization(Discretization):
                  verbose: bool = True):
         check_materials(mesh.tags, materials)
         self.comm = comm
-        # compressed quadrature only where the integrand is tame: energies without gradient terms
-        smooth = [tag for tag, energy in materials.items() if not energy.uses_gradient]
         self.space = space = VEMSpace(mesh, comm, l=l, l_min=l_min, quadrature_degree=quadrature_degree,
-                                      quadrature=quadrature, compress_tags=smooth, verbose=verbose)
+                                      quadrature=quadrature, verbose=verbose)
         self.regions = [_Region(tag, energy, compile_kernels(energy, comm),
                                 np.flatnonzero(space.tags == tag).astype(np.int64))
                         for tag, energy in sorted(materials.items())]
