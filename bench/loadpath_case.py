@@ -70,25 +70,6 @@ def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")
 
 
-def full_medium_rule() -> None:
-    """Experiment ``--full-medium-rule``: the third medium's non-parallelogram polygons keep the
-    full sub-triangle rule (compressed rules only in regions whose energy has no gradient term,
-    the solids), the package's rule before it compressed the medium too."""
-    import dolfinx_sfvem.space
-    space_init = dolfinx_sfvem.space.VEMSpace.__init__
-    disc_init = dolfinx_sfvem.vem.SFVEMDiscretization.__init__
-    solids: list[int] = []
-
-    def space_solids_only(self, mesh, *args, **kwargs):
-        space_init(self, mesh, *args, compress_tags=solids, **kwargs)
-
-    def disc_solids_only(self, mesh, materials, *args, **kwargs):
-        solids[:] = [tag for tag, energy in materials.items() if not energy.uses_gradient]
-        disc_init(self, mesh, materials, *args, **kwargs)
-    dolfinx_sfvem.space.VEMSpace.__init__ = space_solids_only
-    dolfinx_sfvem.vem.SFVEMDiscretization.__init__ = disc_solids_only
-
-
 def warm_up(problem: sf.ContactProblem) -> None:
     """One residual and one tangent at the initial state, so that numba's compilation (or cache
     loading) is not in the load path's times; timed separately as ``first_assembly_s``."""
@@ -142,11 +123,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     split = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=pathlib.Path, required=True, help="where rank 0 writes the measurements")
-    p.add_argument("--full-medium-rule", action="store_true",
-                   help="experiment: full sub-triangle rule in the medium's general polygons (full_medium_rule)")
     args = p.parse_args(argv[:split])
-    if args.full_medium_rule:
-        full_medium_rule()
     comm = MPI.COMM_WORLD
     record = run(argv[split + 1:], comm)
     if comm.rank == 0:

@@ -8,13 +8,12 @@ pointwise energy kernels per assembly, so the rules are made small:
 - the reference: Gauss rules on each polygon's sub-triangles (:func:`polygon_quadrature`);
 - parallelograms (any number of collinear hanging nodes on their sides) get the tensor
   Gauss rule of the parallelogram, (d//2 + 1)² points;
-- other polygons (where it is allowed; by default everywhere, the third medium included)
-  get the sub-triangle rule compressed to at most dim P_d points by non-negative least
-  squares on the moments (Carathéodory–Tchakaloff compression): a subset of the
-  sub-triangle points with new positive weights, exact for the same degree
-  (:func:`compressed_polygon_quadrature`). In the medium this changes the discrete problem
-  by a quadrature error only (its integrand is not polynomial); measured in
-  docs/performance.md.
+- the other polygons, solid and third medium alike, get the sub-triangle rule compressed to
+  at most dim P_d points by non-negative least squares on the moments
+  (Carathéodory–Tchakaloff compression): a subset of the sub-triangle points with new
+  positive weights, exact for the same degree (:func:`compressed_polygon_quadrature`).
+  In the medium this changes the answer by the quadrature error of a non-polynomial
+  integrand, far below the discretization error (docs/performance.md).
 """
 from __future__ import annotations
 
@@ -188,8 +187,7 @@ def compress_rule(points: npt.NDArray[np.float64], weights: npt.NDArray[np.float
 def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64],
                                   vertices: npt.NDArray[np.int64], nodes: npt.NDArray[np.float64],
                                   triangles: npt.NDArray[np.int64], triangle_offsets: npt.NDArray[np.int64],
-                                  polygons: npt.NDArray[np.int64], degrees: npt.NDArray[np.integer],
-                                  compress: npt.NDArray[np.bool_] | None = None):
+                                  polygons: npt.NDArray[np.int64], degrees: npt.NDArray[np.integer]):
     """Small positive rules on the given polygons, exact for ``degrees`` (module docstring).
 
     Parameters
@@ -197,10 +195,8 @@ def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.
     points, offsets, vertices
         The polygon mesh: polygon e has the vertices ``points[vertices[offsets[e]:offsets[e + 1]]]``.
     nodes, triangles, triangle_offsets, polygons, degrees
-        As for :func:`polygon_quadrature`, whose rule is compressed.
-    compress : (n,) bool, optional
-        Whether NNLS compression is allowed on each of ``polygons`` (default: everywhere);
-        parallelograms get their tensor rule regardless.
+        As for :func:`polygon_quadrature`, whose rule is compressed (parallelograms get their
+        tensor rule).
 
     Returns
     -------
@@ -212,14 +208,13 @@ def compressed_polygon_quadrature(points: npt.NDArray[np.float64], offsets: npt.
     degrees = np.asarray(degrees, dtype=np.int64)
     q_offsets, x_q, w_q = polygon_quadrature(nodes, triangles, triangle_offsets, polygons, degrees)
     rules = []
-    compress = np.ones(polygons.size, dtype=bool) if compress is None else np.asarray(compress, dtype=bool)
     for k, (e, d) in enumerate(zip(polygons, degrees)):
         corners = parallelogram_corners(points[vertices[offsets[e]:offsets[e + 1]]])
         q = slice(q_offsets[k], q_offsets[k + 1])
         if corners is not None:
             rules.append(parallelogram_rule(corners, d))
         else:
-            rules.append(compress_rule(x_q[q], w_q[q], d) if compress[k] else (x_q[q], w_q[q]))
+            rules.append(compress_rule(x_q[q], w_q[q], d))
     counts = [w.size for _, w in rules]
     return (np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
             np.vstack([x for x, _ in rules]), np.concatenate([w for _, w in rules]))

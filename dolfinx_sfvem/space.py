@@ -106,12 +106,9 @@ class VEMSpace:
         Degree integrated exactly by the energy quadrature; default ``2 l`` per polygon.
     quadrature
         ``"compressed"`` (default): the small rules of :mod:`dolfinx_sfvem.quadrature`
-        (tensor Gauss on parallelograms, compressed sub-triangle rules on the other polygons
-        of the regions in ``compress_tags``);
+        (tensor Gauss on parallelograms, compressed sub-triangle rules on the other polygons);
         ``"subtriangles"``: Gauss rules on every sub-triangle (the reference, about 1.7×
         the points).
-    compress_tags
-        Region tags whose non-parallelogram polygons may get compressed rules (default: all).
     verbose
         Print the distribution of l on rank 0.
 
@@ -150,7 +147,7 @@ class VEMSpace:
     def __init__(self, mesh: PolygonMesh, comm: MPI.Comm = MPI.COMM_WORLD, *,
                  l: int | npt.ArrayLike | None = None, l_min: int = 3,
                  quadrature_degree: int | None = None, quadrature: str = "compressed",
-                 compress_tags: typing.Collection[int] | None = None, verbose: bool = True):
+                 verbose: bool = True):
         if quadrature not in QUADRATURES:
             raise ValueError(f"unknown quadrature {quadrature!r}; use one of {QUADRATURES}")
         self.polygon_mesh = mesh
@@ -173,8 +170,7 @@ class VEMSpace:
         triangles = (mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
         self.q_offsets, self.x_q, self.w_q = (
             polygon_quadrature(*triangles) if quadrature == "subtriangles"
-            else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles,
-                                               None if compress_tags is None else np.isin(self.tags, list(compress_tags))))
+            else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles))
         self._to_p2 = None
         if verbose:
             text = self.summary()
