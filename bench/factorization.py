@@ -5,15 +5,15 @@ Usage::
     python3 bench/factorization.py [--repeats 3] -- DEMO [demo options]
 
 e.g. ``... -- multi_object --method vem --h 0.04 --steps 30``. The demo's problem is solved
-along its load path (no output), then at the final state the tangent is assembled and the
-constrained rows and columns are removed (the symmetric elimination of the Dirichlet
-conditions: K_ff, the free-free block). On K_ff, each factorization is set up ``--repeats``
-times (numeric factorization of a fresh PC each time, the smallest wall time kept):
+along its load path (no output), then at the final state the tangent is assembled with the
+solver's symmetric elimination of the Dirichlet conditions (constrained rows and columns zeroed,
+1 on the diagonal: the matrix the solver factorizes) and, for comparison, with the constrained
+rows and columns removed (K_ff, the free-free block). On both, each factorization is set up
+``--repeats`` times (numeric factorization of a fresh PC each time, the smallest wall time kept):
 
-- ``lu``: ``pc_type lu`` with MUMPS, as the solver uses now (on the full tangent with
-  identity rows, and on K_ff);
-- ``ldlt``: ``pc_type cholesky`` with MUMPS on K_ff flagged symmetric, not positive
-  definite (MUMPS SYM = 2, LDL^T with 1x1 and 2x2 pivots);
+- ``lu``: ``pc_type lu`` with MUMPS (the solver's option ``-pc_type lu``);
+- ``ldlt``: ``pc_type cholesky`` with MUMPS, the matrix flagged symmetric, not positive
+  definite (MUMPS SYM = 2, LDL^T with 1x1 and 2x2 pivots; the solver's default);
 
 with, for LDL^T, the number of negative pivots (MUMPS INFOG(12)): the number of negative
 eigenvalues of K_ff (Sylvester's law of inertia), i.e. of the tangent on the free unknowns.
@@ -83,16 +83,17 @@ def measure(demo_argv: typing.Sequence[str], repeats: int) -> dict:
     disc.set_constraints(problem._constraints()[0])
     A = disc.create_matrix()
     problem.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    disc.jacobian(problem.x, A)
+    disc.jacobian(problem.x, A)                   # the constraints of the solve, eliminated symmetrically
     K = free_block(A, disc.constraints.mask[:disc.n_owned_dofs])
-    K.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    K.setOption(PETSc.Mat.Option.SPD, False)
+    for M in (A, K):
+        M.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        M.setOption(PETSc.Mat.Option.SPD, False)
     n, nnz = K.getSize()[0], K.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]
     return {"demo": name, "argv": argv, "method": args.method, "load": float(result.load),
             "unknowns": int(disc.num_dofs_global), "free_unknowns": int(n), "nonzeros_per_row": nnz / n,
             "symmetry_defect": symmetry_defect(K),
-            "lu_full": factorize(A, "lu", repeats), "lu": factorize(K, "lu", repeats),
-            "ldlt": factorize(K, "ldlt", repeats)}
+            "lu_eliminated": factorize(A, "lu", repeats), "ldlt_eliminated": factorize(A, "ldlt", repeats),
+            "lu": factorize(K, "lu", repeats), "ldlt": factorize(K, "ldlt", repeats)}
 
 
 def main(argv: typing.Sequence[str] | None = None) -> int:

@@ -148,9 +148,9 @@ def markdown(records: typing.Sequence[dict], machine: dict) -> str:
     notes = [f"- residuals per Newton iteration (SNES), mean over the runs: "
              + ", ".join(f"`{ls}` {sum(v) / len(v):.2f}" for ls, v in per_ls.items()),
              "- residuals/it: the residuals SNES evaluates (Newton + line search) per Newton iteration; "
-             "every converged state costs one more (final diagnostics) and one per reaction evaluation",
+             "the final diagnostics and the reactions of a converged state reuse SNES's last one",
              "- per it: the solve's time per Newton iteration (failed attempts included): tangent assembly, "
-             "residual assembly (all of them, guard excluded), MUMPS LU factorization + solve, checks (folded-"
+             "residual assembly (all of them, guard excluded), MUMPS factorization (LDL^T by default) + solve, checks (folded-"
              "element guard on every residual + gap per converged state), output (XDMF, checkpoint, summary, "
              "CSV per step; pictures at the end), other (SNES, vectors, Python)",
              "- solve s: `problem.solve` from start to return (numba compilation excluded by a first assembly "

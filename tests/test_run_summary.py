@@ -29,6 +29,7 @@ def test_read_summary_reads_what_solve_writes(tmp_path):
     assert summary.final_step.reaction == result.steps[-1]["reaction"]
     assert summary.final_step.force("top") == -result.steps[-1]["reaction"]["top"][1]
     assert summary.final_step.value("max_displacement") == result.steps[-1]["max_displacement"]
+    assert [s.negative_pivots for s in summary.converged_steps] == [0, 0]     # a compressed block: stable
     assert summary.newton_iterations == sum(s["newton_iterations"] for s in result.attempts)
     assert summary.parameters["materials"]["1"]["energy"] == "Hyperelastic"
 
