@@ -59,7 +59,7 @@ class Compression:
     """The medium polygons compressed below ``J_below``: smallest J = det F over their
     quadrature points < ``J_below`` (dimensionless, in (0, 1)). The medium between two solids
     closing in on each other is what gets compressed, so this follows the contact."""
-    J_below: float = 0.5
+    J_below: float = 0.8
 
     def __post_init__(self):
         if not 0.0 < self.J_below < 1.0:

@@ -39,7 +39,7 @@ from .solver import Attempt, LoadStepper, NewtonResult, NewtonSolver, SolveFaile
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 #: an observer returns one number, or several named ones
 Observer = typing.Callable[["ContactProblem"], typing.Union[float, typing.Mapping[str, float]]]
-#: steps of the residual relaxation of :meth:`ContactProblem._rebalance` (cut back down to 1/16 of one)
+#: steps of the residual relaxation of :meth:`ContactProblem._rebalance` (cut back down to a quarter of one)
 RELAX_STEPS = 4
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
 
@@ -366,13 +366,21 @@ class ContactProblem:
 
     def _move_to(self, refinement: Refinement) -> None:
         """Rebuild on ``refinement.mesh`` and carry the state over (collective)."""
+        self._rebuild(refinement.mesh, transfer_state(refinement, self._gathered_state()))
+
+    def _gathered_state(self) -> np.ndarray:
+        """The state (n_nodes, 2) by node key, on every rank (collective)."""
         keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
-        coarse = np.full((int(keys.max()) + 1, 2), np.nan)
-        coarse[keys] = values
-        fine = transfer_state(refinement, coarse)
+        state = np.full((int(keys.max()) + 1, 2), np.nan)
+        state[keys] = values
+        return state
+
+    def _rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None:
+        """The problem on ``mesh`` at ``state`` (n_nodes, 2) by node key (collective)."""
         self.x.destroy()
-        self._build(refinement.mesh)
-        self.disc.set_state(np.arange(fine.shape[0]), fine, self.x)
+        self._build(mesh)
+        self.disc.set_state(np.arange(state.shape[0]), state, self.x)
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
     # ------------------------------------------------------------------ solve
     def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
@@ -434,6 +442,8 @@ class ContactProblem:
         if from_current_state and until < self.load - 1e-12:
             raise ValueError(f"until = {until:g} lies below the load factor {self.load:g} already reached")
         rebalance = from_current_state and self._solved and not resume
+        if adapt is not None:
+            adapt.level = None                 # levels count from the mesh this solve starts on
         self._solved = True
         t_start = time.perf_counter()
         stepper = LoadStepper(steps, min_increment=min_increment, start=self.load if from_current_state else 0.0,
@@ -448,6 +458,7 @@ class ContactProblem:
         observers = dict(observers or {})
         message = ""
         refined, transferred = 0, False        # polygons split after the last converged step; state transferred
+        undo = None                            # mesh and state before the last adaptive refinement
         with StopRequest() as stop:
             try:
                 while True:
@@ -470,19 +481,25 @@ class ContactProblem:
                                 writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time,
                                             self._attempt_contact[1])
                             if adapt is not None and advanced and not stop.requested(self.comm):
-                                refined = records[-1]["refined_polygons"] = self._adapt(adapt)
-                                if refined and writer is not None:
-                                    writer.new_mesh()
+                                refined, undo = self._adapt(adapt)
+                                records[-1]["refined_polygons"] = refined
                         elif self.verbose and self.comm.rank == 0:
+                            then = "cutting the increment" if attempt.load > self.load else "re-balancing failed"
                             print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
-                                  f"{rec.newton_iterations} its); cutting the increment", flush=True)
+                                  f"{rec.newton_iterations} its); {then}", flush=True)
                         if not attempt.converged and attempt.load == self.load:
-                            raise SolveFailed(f"re-balancing at load factor {self.load:.6g} failed ({rec.failure})")
+                            if undo is None:
+                                raise SolveFailed(f"re-balancing at load factor {self.load:.6g} failed "
+                                                  f"({rec.failure})")
+                            self._undo_adaptation(*undo, records)
+                            undo, adapt, refined = None, None, -1
                         if refined or stop.requested(self.comm):
                             break
                     if not refined:
                         break
-                    rebalance, transferred, refined = True, True, 0
+                    if writer is not None:
+                        writer.new_mesh()
+                    rebalance, transferred, refined = refined > 0, refined > 0, 0
             except SolveFailed as err:
                 n_done = sum(r["converged"] for r in records)
                 message = f"step {n_done + 1}: {err}"
@@ -524,7 +541,7 @@ class ContactProblem:
         r0 = self.disc.create_vector()
         self.disc.residual(self.x, r0)
         homotopy = NewtonSolver(self.disc, petsc_options, r0)
-        ramp = LoadStepper(RELAX_STEPS, min_increment=1.0 / RELAX_STEPS / 2 ** 4)
+        ramp = LoadStepper(RELAX_STEPS, min_increment=1.0 / RELAX_STEPS / 4)
         g = self.load * final
         try:
             for attempt in ramp.attempts(lambda s: homotopy.solve(self.x, g, 1.0 - s), self.x):
@@ -537,18 +554,31 @@ class ContactProblem:
         result.iterations += iterations
         return result
 
-    def _adapt(self, adapt: Adaptivity) -> int:
-        """Refine where ``adapt`` says at the current (converged) state; the number of polygons
-        split (0: nothing to refine, or a limit reached)."""
+    def _undo_adaptation(self, mesh: PolygonMesh, state: np.ndarray, records: list[dict]) -> None:
+        """Back to ``mesh`` and ``state`` (n_nodes, 2) from before the adaptive refinement whose
+        re-balancing failed, adaptivity off for the rest of the path: the last converged step is
+        kept as it was, nothing is lost (collective)."""
+        records[-1]["failure"] += "; refinement undone, adaptivity off for the rest of the path"
+        if self.verbose and self.comm.rank == 0:
+            print(f"  re-balancing the refined mesh at load {self.load:.5g} failed: back to the mesh before "
+                  "(adaptivity off for the rest of the path)", flush=True)
+        self._rebuild(mesh, state)
+        last = next(r for r in reversed(records) if r["converged"])
+        last["refined_polygons"] = 0
+
+    def _adapt(self, adapt: Adaptivity) -> tuple[int, tuple[PolygonMesh, np.ndarray] | None]:
+        """Refine where ``adapt`` says at the current (converged) state: the number of polygons
+        split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
         refinement = adapt.refinement(self)
         if refinement is None:
-            return 0
+            return 0, None
+        before = (self.mesh, self._gathered_state())
         self._move_to(refinement)
         adapt.refined(refinement)
         if self.verbose and self.comm.rank == 0:
             print(f"  adapt at load {self.load:.5g}: {refinement.describe()}, {self.disc.num_dofs_global} unknowns",
                   flush=True)
-        return int(refinement.selected.sum())
+        return int(refinement.selected.sum()), before
 
     def _solve_to(self, newton: NewtonSolver, final: np.ndarray, load: float) -> NewtonResult:
         """Newton's solve for the load factor ``load`` (constrained values ``load * final``); a
