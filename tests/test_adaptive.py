@@ -4,6 +4,7 @@ References from outside the code under test: J of a homogeneous compression comp
 the polygons an indicator marks recomputed from the mesh, the unknowns of a rebuilt
 discretization, and the files written by the run read back through the typed reader.
 """
+import json
 import pathlib
 import subprocess
 import sys
@@ -130,3 +131,19 @@ def test_demo_adapt_option_needs_the_vem():
     proc = subprocess.run([sys.executable, str(DEMOS / "cbox.py"), "--adapt", "--method", "fem", "--quiet"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "--adapt needs --method vem" in proc.stderr
+
+
+def test_study_script_reduced_run(tmp_path):
+    """demos/local_refinement.py --quick: two coarse C-box runs, a page with their rows, study.json."""
+    page = tmp_path / "study.md"
+    proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
+                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    runs = json.loads((tmp_path / "study.json").read_text())
+    assert [r["label"] for r in runs] == ["uniform h = 0.1", "h = 0.1, adaptive"]
+    uniform, adaptive = runs
+    assert all(r["converged"] for r in runs) and adaptive["dofs"] > uniform["dofs"]
+    assert abs(adaptive["force"] / uniform["force"] - 1) < 0.1                # the same problem, another mesh
+    text = page.read_text()
+    assert "| SFVEM | h = 0.1, adaptive | yes | " + str(adaptive["dofs"]) in text
+    assert "Reference: SFVEM uniform h = 0.1" in text
