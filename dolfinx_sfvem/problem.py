@@ -65,7 +65,8 @@ class Result:
     Attributes
     ----------
     converged : bool
-        The full load was reached (and no solids overlap).
+        The load factor ``until`` of :meth:`ContactProblem.solve` (default 1, the full load) was
+        reached (and no solids overlap).
     load : float
         Largest load factor reached.
     steps : list of dict
