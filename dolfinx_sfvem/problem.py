@@ -549,7 +549,7 @@ class ContactProblem:
                 iterations += attempt.result.iterations
             result = self._solve_to(newton, final, self.load)
         except SolveFailed as err:
-            result = dataclasses.replace(attempt.result, failure=f"relaxing the residual: {err}")
+            result = dataclasses.replace(attempt.result, iterations=0, failure=f"relaxing the residual: {err}")
         finally:
             r0.destroy()
         result.iterations += iterations
