@@ -161,9 +161,11 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     if args.page_only:
         runs = [Run(**r) for r in json.loads((args.out / "study.json").read_text())]
     else:
-        runs = [solve(c, args.quiet) for c in cases(args.quick) if args.only in (None, c.problem)]
         args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "study.json").write_text(json.dumps([asdict(r) for r in runs], indent=1))
+        runs = []
+        for case in (c for c in cases(args.quick) if args.only in (None, c.problem)):
+            runs.append(solve(case, args.quiet))             # study.json after every run: nothing lost
+            (args.out / "study.json").write_text(json.dumps([asdict(r) for r in runs], indent=1))
     command = "python3 demos/local_refinement.py" + (" --quick" if args.quick else "")
     args.page.write_text(page(runs, command))
     print(f"wrote {args.page} and {args.out / 'study.json'}")
