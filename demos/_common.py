@@ -228,15 +228,20 @@ def displacement_observer(problem: sf.ContactProblem, marker: typing.Callable[[n
     ValueError
         If the marker does not select exactly one node.
     """
-    dofs = problem.disc.locate_dofs(marker, component=component)
-    owned = dofs[dofs < problem.disc.n_owned_dofs]
-    count = problem.comm.allreduce(owned.size, op=MPI.SUM)
-    if count != 1:
-        raise ValueError(f"a displacement observer needs exactly one node, the marker selects {count}")
+    def owned_dof(disc: sf.Discretization) -> np.ndarray:
+        dofs = disc.locate_dofs(marker, component=component)
+        owned = dofs[dofs < disc.n_owned_dofs]
+        count = problem.comm.allreduce(owned.size, op=MPI.SUM)
+        if count != 1:
+            raise ValueError(f"a displacement observer needs exactly one node, the marker selects {count}")
+        return owned
+    located = {"disc": problem.disc, "dof": owned_dof(problem.disc)}
 
     def observe(p: sf.ContactProblem) -> float:
+        if p.disc is not located["disc"]:                  # refined since: the node has another DOF
+            located.update(disc=p.disc, dof=owned_dof(p.disc))
         with p.x.localForm() as xl:
-            return p.comm.allreduce(float(xl.array_r[owned].sum()), op=MPI.SUM)
+            return p.comm.allreduce(float(xl.array_r[located["dof"]].sum()), op=MPI.SUM)
     return observe
 
 

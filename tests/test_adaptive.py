@@ -147,3 +147,14 @@ def test_study_script_reduced_run(tmp_path):
     text = page.read_text()
     assert "| SFVEM | h = 0.1, adaptive | yes | " + str(adaptive["dofs"]) in text
     assert "Reference: SFVEM uniform h = 0.1" in text
+
+
+def test_demo_displacement_observer_follows_a_refinement():
+    """The demos' point observers find their node again on a refined mesh."""
+    sys.path.insert(0, str(DEMOS))
+    import _common as common
+    problem = pressed_blocks()
+    observe = common.displacement_observer(problem, common.at_point((0.5, 1.2)), 1)
+    problem.refine(lambda x: x[1] > 0.9)
+    problem.set_displacement(uy=lambda x: 0.1 * x[0] * x[1])
+    assert observe(problem) == pytest.approx(0.1 * 0.5 * 1.2, rel=1e-12)
