@@ -7,7 +7,7 @@ default parameters) on one rank; the table gives the unknowns at the end, the fi
 the flanges at mid-span), the wall time of the solve and the differences to the reference.
 Writes ``--page`` (default docs/local-refinement-study.md) and ``study.json`` in ``--out``.
 
-    python3 demos/local_refinement.py                       # the study of the docs (~15 min)
+    python3 demos/local_refinement.py                       # the study of the docs (~25 min, runs < 8 min)
     python3 demos/local_refinement.py --quick --out /tmp/s  # two coarse C-box runs (tests)
     python3 demos/local_refinement.py --page-only           # the page again from out/.../study.json
 """
