@@ -9,7 +9,9 @@ Shared options
 ``--method`` (vem or fem: the P2 FEM reference on a triangle mesh of the same geometry with about as many unknowns), ``--steps``, ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
 regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the stopped run
-whose outputs are in DIR from its last converged step; give the same options as that run). Every other argument starting with a
+whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
+(SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
+``--adapt-max-unknowns`` as limits; docs/refinement-local.md). Every other argument starting with a
 single ``-`` is a PETSc option (``-snes_monitor``, ``-ksp_type gmres``,
 ``-pc_factor_mat_solver_type superlu_dist``, ...) and goes to PETSc's options database.
 
@@ -116,7 +118,23 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                         "(contact_pressure_<load>.png; the last state's is always plotted)")
     p.add_argument("--resume", type=pathlib.Path, default=None, metavar="DIR",
                    help="continue the stopped run in DIR from its last converged step (same options as that run)")
+    p.add_argument("--adapt", type=_number(float, lambda v: 0 < v < 1, "a number in (0, 1)"), nargs="?",
+                   const=sf.Compression().J_below, default=None, metavar="J",
+                   help="--method vem only: refine the medium during the load path where it is compressed "
+                        "below J (default J %(const)s when given without a value)")
+    p.add_argument("--adapt-levels", type=positive_int, default=2, metavar="N",
+                   help="with --adapt: split a polygon at most N times (default %(default)s)")
+    p.add_argument("--adapt-max-unknowns", type=positive_int, default=None, metavar="N",
+                   help="with --adapt: no refinement beyond N unknowns (default: no limit)")
     return p
+
+
+def adaptivity(args: argparse.Namespace) -> sf.Adaptivity | None:
+    """The adaptive refinement of ``--adapt`` (None without it)."""
+    if args.adapt is None:
+        return None
+    return sf.Adaptivity(sf.Compression(args.adapt), max_levels=args.adapt_levels,
+                         max_unknowns=args.adapt_max_unknowns)
 
 
 def add_uy(p: argparse.ArgumentParser, default: float, where: str, note: str = "") -> None:
@@ -148,6 +166,8 @@ def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = N
         for name, value in vars(args).items():
             if name.startswith("fem_") and value is not None:
                 p.error(f"--{name.replace('_', '-')} needs --method fem")
+    if args.adapt is not None and (args.method != "vem" or args.resume is not None):
+        p.error("--adapt needs --method vem and cannot be combined with --resume")
     sf.set_petsc_options(rest)
     args.petsc_options = rest
     if args.resume is not None:
@@ -208,15 +228,20 @@ def displacement_observer(problem: sf.ContactProblem, marker: typing.Callable[[n
     ValueError
         If the marker does not select exactly one node.
     """
-    dofs = problem.disc.locate_dofs(marker, component=component)
-    owned = dofs[dofs < problem.disc.n_owned_dofs]
-    count = problem.comm.allreduce(owned.size, op=MPI.SUM)
-    if count != 1:
-        raise ValueError(f"a displacement observer needs exactly one node, the marker selects {count}")
+    def owned_dof(disc: sf.Discretization) -> np.ndarray:
+        dofs = disc.locate_dofs(marker, component=component)
+        owned = dofs[dofs < disc.n_owned_dofs]
+        count = problem.comm.allreduce(owned.size, op=MPI.SUM)
+        if count != 1:
+            raise ValueError(f"a displacement observer needs exactly one node, the marker selects {count}")
+        return owned
+    located = {"disc": problem.disc, "dof": owned_dof(problem.disc)}
 
     def observe(p: sf.ContactProblem) -> float:
+        if p.disc is not located["disc"]:                  # refined since: the node has another DOF
+            located.update(disc=p.disc, dof=owned_dof(p.disc))
         with p.x.localForm() as xl:
-            return p.comm.allreduce(float(xl.array_r[owned].sum()), op=MPI.SUM)
+            return p.comm.allreduce(float(xl.array_r[located["dof"]].sum()), op=MPI.SUM)
     return observe
 
 
@@ -226,8 +251,8 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         **solve_options) -> int:
     """Solve the load path, write the outputs to ``args.out`` and report.
 
-    The command-line arguments (except ``--out``, ``--quiet``, ``--resume`` and
-    ``--pressure-at``) are stored in the "parameters" of summary.json. ``solve_options``
+    The command-line arguments (except ``--out``, ``--quiet``, ``--resume``, ``--pressure-at``,
+    and the ``--adapt`` options when it is not given) are stored in the "parameters" of summary.json. ``solve_options``
     (e.g. ``min_increment``) go to :meth:`~dolfinx_sfvem.ContactProblem.solve`.
 
     Returns
@@ -235,10 +260,11 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
     int
         Exit code: 0 if the full load was reached, 1 otherwise.
     """
+    adapt_options = ("adapt", "adapt_levels", "adapt_max_unknowns") if args.adapt is None else ()
     problem.parameters.update({k: v for k, v in vars(args).items()
-                               if k not in ("out", "quiet", "resume", "pressure_at")})
+                               if k not in ("out", "quiet", "resume", "pressure_at", *adapt_options)})
     result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None,
-                           pressure_at=args.pressure_at, **solve_options)
+                           pressure_at=args.pressure_at, adapt=adaptivity(args), **solve_options)
     if problem.comm.rank == 0:
         files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
         print(f"outputs in {args.out}/: {', '.join(files)}")

@@ -9,6 +9,8 @@ PolygonMesh
     Polygonal mesh with region tags (validation, hanging nodes, sub-triangulation).
 Hyperelastic, ThirdMedium, UserEnergy
     Region energies (paper Eqs. 2-17).
+Adaptivity, Compression, NearContact
+    Adaptive refinement of the medium during a load path (``solve(..., adapt=...)``).
 ContactProblem
     Mesh + energies + boundary conditions + load path, solved with PETSc SNES.
 Discretization
@@ -24,6 +26,7 @@ meshes
 """
 from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from . import meshes
+from .adaptivity import Adaptivity, Compression, NearContact
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
 from .discretization import Discretization
@@ -38,4 +41,4 @@ __version__ = "0.1.0"
 
 __all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
            "Discretization", "VEMSpace", "SFVEMDiscretization", "LagrangeDiscretization", "linear_elastic_stiffness",
-           "meshes", "SolveFailed", "set_petsc_options"]
+           "meshes", "SolveFailed", "set_petsc_options", "Adaptivity", "Compression", "NearContact"]

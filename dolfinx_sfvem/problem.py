@@ -13,7 +13,9 @@ Example
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
+import itertools
 import pathlib
 import time
 import typing
@@ -25,16 +27,20 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import post
+from .adaptivity import Adaptivity
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .interrupt import StopRequest
 from .polygon_mesh import PolygonMesh
+from .refine import Refinement, refine_mesh, transfer_state
 from .run_output import STOPPED_BY_SIGNAL, RunWriter, progress_line, read_checkpoint
 from .solver import Attempt, LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 #: an observer returns one number, or several named ones
 Observer = typing.Callable[["ContactProblem"], typing.Union[float, typing.Mapping[str, float]]]
+#: steps of the residual relaxation of :meth:`ContactProblem._rebalance` (cut back down to a quarter of one)
+RELAX_STEPS = 4
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
 
 
@@ -59,7 +65,8 @@ class Result:
     Attributes
     ----------
     converged : bool
-        The full load was reached (and no solids overlap).
+        The load factor ``until`` of :meth:`ContactProblem.solve` (default 1, the full load) was
+        reached (and no solids overlap).
     load : float
         Largest load factor reached.
     steps : list of dict
@@ -148,33 +155,42 @@ class ContactProblem:
         if method not in ("vem", "fem"):
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         self.method = method
-        self.mesh = mesh
-        self.materials = _materials_by_tag(mesh, materials)
         self.comm = comm
         self.verbose = options.get("verbose", True)
-        if method == "vem":
-            from .vem import SFVEMDiscretization
-            self.disc = SFVEMDiscretization(mesh, self.materials, comm, **options)
-        else:
-            from .fem import LagrangeDiscretization
-            self.disc = LagrangeDiscretization.from_polygon_mesh(mesh, self.materials, comm, **options)
-        self.boundary = SolidBoundary(self.disc.output_mesh,
-                                      [tag for tag, energy in self.materials.items() if not energy.is_medium],
-                                      self.disc.midpoint_keys, overlap_tolerance)
+        self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
+        self.materials = _materials_by_tag(mesh, materials)
+        self._build(mesh)
         self.bcs: list[BoundaryCondition] = []
         self.f_ext = None
         self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
         self._attempt_contact: tuple[Gap, ContactPressure] | None = None   # of the last converged attempt
+        self._solved = False
+        #: load factor of the current state (0 in the reference state; set by :meth:`solve`)
+        self.load = 0.0
+        self.parameters: dict[str, typing.Any] = {}
+
+    def _build(self, mesh: PolygonMesh) -> None:
+        """The discretization of ``mesh`` (materials and options of the problem), the solids'
+        boundary for the contact checks and a zero state vector."""
+        self.mesh = mesh
+        options = {k: v for k, v in self._options.items() if k != "overlap_tolerance"}
+        if self.method == "vem":
+            from .vem import SFVEMDiscretization
+            self.disc = SFVEMDiscretization(mesh, self.materials, self.comm, **options)
+        else:
+            from .fem import LagrangeDiscretization
+            self.disc = LagrangeDiscretization.from_polygon_mesh(mesh, self.materials, self.comm, **options)
+        self.boundary = SolidBoundary(self.disc.output_mesh,
+                                      [tag for tag, energy in self.materials.items() if not energy.is_medium],
+                                      self.disc.midpoint_keys, self._options["overlap_tolerance"])
         self.x = self.disc.create_vector()
         self.x.set(0.0)
-        self._solved = False
-        self.parameters: dict[str, typing.Any] = {}
-        self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
 
     def reset(self) -> None:
-        """Back to the reference state (u = 0), so that :meth:`solve` may run again."""
+        """Back to the reference state (u = 0, load factor 0), so that :meth:`solve` may run again."""
         self.x.set(0.0)
         self._solved = False
+        self.load = 0.0
 
     # ------------------------------------------------------------------ boundary conditions
     def fix(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
@@ -344,7 +360,6 @@ class ContactProblem:
         Refinement
             The new mesh (also ``self.mesh``) and the parent polygon of each new polygon.
         """
-        from .refine import refine_mesh, transfer_state
         if self.method != "vem":
             raise ValueError("refine: only method='vem' can be refined with hanging nodes; for the FEM build a "
                              "finer problem instead")
@@ -352,16 +367,26 @@ class ContactProblem:
             raise ValueError("refine: a problem with a body force cannot be refined (the force vector belongs "
                              "to the old mesh); refine first, then call body_force")
         refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
-        keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
-        coarse = np.full((int(keys.max()) + 1, 2), np.nan)
-        coarse[keys] = values
-        fine = transfer_state(refinement, coarse)
-        kept = (self.bcs, self._solved, self.parameters, self._earlier_wall_time)
-        self.x.destroy()
-        self.__init__(refinement.mesh, self.materials, self.method, self.comm, **self._options)
-        self.bcs, self._solved, self.parameters, self._earlier_wall_time = kept
-        self.disc.set_state(np.arange(fine.shape[0]), fine, self.x)
+        self._move_to(refinement)
         return refinement
+
+    def _move_to(self, refinement: Refinement) -> None:
+        """Rebuild on ``refinement.mesh`` and carry the state over (collective)."""
+        self._rebuild(refinement.mesh, transfer_state(refinement, self._gathered_state()))
+
+    def _gathered_state(self) -> np.ndarray:
+        """The state (n_nodes, 2) by node key, on every rank (collective)."""
+        keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
+        state = np.full((int(keys.max()) + 1, 2), np.nan)
+        state[keys] = values
+        return state
+
+    def _rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None:
+        """The problem on ``mesh`` at ``state`` (n_nodes, 2) by node key (collective)."""
+        self.x.destroy()
+        self._build(mesh)
+        self.disc.set_state(np.arange(state.shape[0]), state, self.x)
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
     # ------------------------------------------------------------------ solve
     def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
@@ -369,13 +394,15 @@ class ContactProblem:
               min_increment: float | None = None,
               observers: typing.Mapping[str, Observer] | None = None,
               raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
+              until: float = 1.0, adapt: Adaptivity | None = None,
               pressure_at: typing.Iterable[float] = ()) -> Result:
         """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
 
         Parameters
         ----------
         steps
-            Number of nominal load increments.
+            Number of nominal load increments over the whole path, load factor 0 to 1 (a path
+            continued from load factor λ_0 takes about ``(until - λ_0) * steps`` of them).
         out
             Output directory (summary.json, load_path.csv, XDMF, PNG); None writes nothing.
         petsc_options
@@ -392,11 +419,19 @@ class ContactProblem:
         resume
             Continue the run saved in ``out`` (``checkpoint.npz`` and ``summary.json``, written
             after every converged step) from its last converged step. With the same
-            ``steps`` the result equals that of an uninterrupted run.
+            ``steps`` the result equals that of an uninterrupted run. Not with ``adapt``.
         from_current_state
-            A problem solved once refuses to solve again unless this is True: then the load is
-            ramped again from 0 starting from the current (deformed) state. :meth:`reset` returns
-            to the reference state instead.
+            Continue the load path from the current state and its load factor :attr:`load`
+            (e.g. after :meth:`refine`): the first step re-balances the state at that load
+            (:meth:`_rebalance`), the following ones go on to ``until``; the cut-back never goes
+            below the load already reached. A problem solved once refuses to solve again unless
+            this is True; :meth:`reset` returns to the reference state instead.
+        until
+            Load factor at which the path stops, in (0, 1]; ``converged`` means it was reached.
+        adapt
+            Refine the medium during the path where ``adapt.indicator`` says, after converged
+            steps (:class:`~dolfinx_sfvem.adaptivity.Adaptivity`, docs/refinement-local.md; SFVEM
+            only). Each refinement is followed by a re-balancing step at the same load.
         pressure_at
             Load factors at which ``out`` gets a plot of the contact pressure along the solids'
             boundaries (``contact_pressure_<load>.png``, at the first converged step reaching each);
@@ -404,50 +439,152 @@ class ContactProblem:
         """
         if self._solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
-                             "reference state, or solve(..., from_current_state=True) to ramp the load again "
+                             "reference state, or solve(..., from_current_state=True) to continue the load path "
                              "from the current state")
+        if not (0.0 < until <= 1.0):
+            raise ValueError(f"until must be a load factor in (0, 1], got {until!r}")
+        if adapt is not None and (resume or self.method != "vem"):
+            raise ValueError("adapt: adaptive refinement needs method='vem' and cannot resume a stopped run")
+        if from_current_state and until < self.load - 1e-12:
+            raise ValueError(f"until = {until:g} lies below the load factor {self.load:g} already reached")
+        rebalance = from_current_state and self._solved and not resume
+        if adapt is not None:
+            adapt.level = None                 # levels count from the mesh this solve starts on
         self._solved = True
         t_start = time.perf_counter()
-        constrained, final, dofs_of = self._constraints()
-        self.disc.set_constraints(constrained)
-        self._check_initial_state()
-        newton = NewtonSolver(self.disc, petsc_options, self.f_ext)
-        stepper = LoadStepper(steps, min_increment=min_increment)
+        stepper = LoadStepper(steps, min_increment=min_increment, start=self.load if from_current_state else 0.0,
+                              until=until)
         records: list[dict] = []
         if resume:
             if out is None:
                 raise ValueError("resume needs the output directory of the stopped run")
+            self.disc.set_constraints(self._constraints()[0])
             records = self._restore_checkpoint(pathlib.Path(out), stepper, steps)
         writer = RunWriter(self, out, stepper, append=resume, pressure_at=pressure_at) if out is not None else None
         observers = dict(observers or {})
         message = ""
+        refined, transferred = 0, False        # polygons split after the last converged step; state transferred
+        undo = None                            # mesh and state before the last adaptive refinement
         with StopRequest() as stop:
             try:
-                for attempt in stepper.attempts(functools.partial(self._solve_to, newton, final), self.x):
-                    rec = self._record(attempt, sum(r["converged"] for r in records) + attempt.converged,
-                                       dofs_of, observers, newton)
-                    records.append(asdict(rec))
-                    if attempt.converged:
-                        self._progress(rec)
-                        if writer is not None:
-                            writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time,
-                                        self._attempt_contact[1])
-                    elif self.verbose and self.comm.rank == 0:
-                        print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; {rec.newton_iterations} "
-                              "its); cutting the increment", flush=True)
-                    if stop.requested(self.comm):
+                while True:
+                    constrained, final, dofs_of = self._constraints()
+                    self.disc.set_constraints(constrained)
+                    if not transferred:
+                        self._check_initial_state()      # a transferred state is checked by re-balancing
+                    newton = NewtonSolver(self.disc, petsc_options, self.f_ext)
+                    path = [self._rebalance(newton, final, petsc_options)] if rebalance else []
+                    path = itertools.chain(path, stepper.attempts(functools.partial(self._solve_to, newton, final),
+                                                                  self.x))
+                    for attempt in path:
+                        rec = self._record(attempt, sum(r["converged"] for r in records) + attempt.converged,
+                                           dofs_of, observers, newton)
+                        records.append(asdict(rec))
+                        if attempt.converged:
+                            advanced, self.load = attempt.load > self.load, attempt.load
+                            self._progress(rec)
+                            if writer is not None:
+                                writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time,
+                                            self._attempt_contact[1])
+                            if adapt is not None and advanced and not stop.requested(self.comm):
+                                refined, undo = self._adapt(adapt)
+                                records[-1]["refined_polygons"] = refined
+                        elif self.verbose and self.comm.rank == 0:
+                            then = "cutting the increment" if attempt.load > self.load else "re-balancing failed"
+                            print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
+                                  f"{rec.newton_iterations} its); {then}", flush=True)
+                        if not attempt.converged and attempt.load == self.load:
+                            if undo is None:
+                                raise SolveFailed(f"re-balancing at load factor {self.load:.6g} failed "
+                                                  f"({rec.failure})")
+                            self._undo_adaptation(*undo, records)
+                            undo, adapt, refined = None, None, -1
+                        if refined or stop.requested(self.comm):
+                            break
+                    if not refined:
                         break
+                    if writer is not None:
+                        writer.new_mesh()
+                    rebalance, transferred, refined = refined > 0, refined > 0, 0
             except SolveFailed as err:
                 n_done = sum(r["converged"] for r in records)
                 message = f"step {n_done + 1}: {err}"
                 err.args = (message,)
                 if raise_on_failure:
-                    self._finish(writer, records, t_start, stepper.load, message)
+                    self._finish(writer, records, t_start, until, message)
                     raise
         signalled = stop.requested(self.comm)
         if signalled:
-            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {stepper.load:.6g}"
-        return self._finish(writer, records, t_start, stepper.load, message)
+            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {self.load:.6g}"
+        return self._finish(writer, records, t_start, until, message)
+
+    # ------------------------------------------------------------------ continuation and adaptivity
+    def _rebalance(self, newton: NewtonSolver, final: np.ndarray,
+                   petsc_options: typing.Mapping[str, typing.Any] | None) -> Attempt:
+        """Equilibrium at the load factor already reached, :attr:`load`, from the current state
+        (a transferred one after :meth:`refine`): Newton's method at that load; if it fails (a
+        state far from equilibrium can fold the soft medium), the residual r_0 of the starting
+        state is relaxed instead, R(u) = (1 - s) r_0 for s ramped from 0 to 1 with cut-back
+        (prescribed values unchanged throughout), and the last solve at s = 1 is Newton's at the
+        load (docs/refinement-local.md). Without a body force only; with one the first solve decides."""
+        t0 = time.perf_counter()
+        start = self.x.copy()
+        result = self._solve_to(newton, final, self.load)
+        if not result.converged and self.f_ext is None:
+            start.copy(self.x)
+            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            result = self._relax(newton, final, petsc_options, result.iterations)
+        if not result.converged:
+            start.copy(self.x)
+            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        start.destroy()
+        return Attempt(self.load, result, time.perf_counter() - t0)
+
+    def _relax(self, newton: NewtonSolver, final: np.ndarray, petsc_options: typing.Mapping[str, typing.Any] | None,
+               iterations: int) -> NewtonResult:
+        """The homotopy of :meth:`_rebalance` from the current state; ``iterations`` done before
+        are added to the result's."""
+        r0 = self.disc.create_vector()
+        self.disc.residual(self.x, r0)
+        homotopy = NewtonSolver(self.disc, petsc_options, r0)
+        ramp = LoadStepper(RELAX_STEPS, min_increment=1.0 / RELAX_STEPS / 4)
+        g = self.load * final
+        try:
+            for attempt in ramp.attempts(lambda s: homotopy.solve(self.x, g, 1.0 - s), self.x):
+                iterations += attempt.result.iterations
+            result = self._solve_to(newton, final, self.load)
+        except SolveFailed as err:
+            result = dataclasses.replace(attempt.result, iterations=0, failure=f"relaxing the residual: {err}")
+        finally:
+            r0.destroy()
+        result.iterations += iterations
+        return result
+
+    def _undo_adaptation(self, mesh: PolygonMesh, state: np.ndarray, records: list[dict]) -> None:
+        """Back to ``mesh`` and ``state`` (n_nodes, 2) from before the adaptive refinement whose
+        re-balancing failed, adaptivity off for the rest of the path: the last converged step is
+        kept as it was, nothing is lost (collective)."""
+        records[-1]["failure"] += "; refinement undone, adaptivity off for the rest of the path"
+        if self.verbose and self.comm.rank == 0:
+            print(f"  re-balancing the refined mesh at load {self.load:.5g} failed: back to the mesh before "
+                  "(adaptivity off for the rest of the path)", flush=True)
+        self._rebuild(mesh, state)
+        last = next(r for r in reversed(records) if r["converged"])
+        last["refined_polygons"] = 0
+
+    def _adapt(self, adapt: Adaptivity) -> tuple[int, tuple[PolygonMesh, np.ndarray] | None]:
+        """Refine where ``adapt`` says at the current (converged) state: the number of polygons
+        split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
+        refinement = adapt.refinement(self)
+        if refinement is None:
+            return 0, None
+        before = (self.mesh, self._gathered_state())
+        self._move_to(refinement)
+        adapt.refined(refinement)
+        if self.verbose and self.comm.rank == 0:
+            print(f"  adapt at load {self.load:.5g}: {refinement.describe()}, {self.disc.num_dofs_global} unknowns",
+                  flush=True)
+        return int(refinement.selected.sum()), before
 
     def _solve_to(self, newton: NewtonSolver, final: np.ndarray, load: float) -> NewtonResult:
         """Newton's solve for the load factor ``load`` (constrained values ``load * final``); a
@@ -481,6 +618,7 @@ class ContactProblem:
             rec.reaction = self.reactions(dofs_of, attempt.load, newton.force)
             rec.max_displacement = self.max_displacement()
             rec.extra = _observe(self, observers)
+            rec.dofs = int(self.disc.num_dofs_global)
         return rec
 
     def _check_initial_state(self) -> None:
@@ -504,23 +642,24 @@ class ContactProblem:
         self.disc.set_state(saved.keys, saved.values, self.x)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         stepper.restore(saved.stepper)
+        self.load = stepper.load
         self._earlier_wall_time = saved.wall_time_s
         records = [r for r in saved.records if r["load"] <= stepper.load + 1e-14]
         if self.comm.rank == 0 and self.verbose:
             print(f"resuming from load factor {stepper.load:.6g} after {len(records)} converged steps", flush=True)
         return records
 
-    def _finish(self, writer: RunWriter | None, records: list[dict], t_start: float, load: float,
+    def _finish(self, writer: RunWriter | None, records: list[dict], t_start: float, until: float,
                 message: str) -> Result:
-        """Write the final outputs and return the result of a run that reached ``load``."""
+        """Write the final outputs and return the result of a run that aimed at the load factor ``until``."""
         wall = time.perf_counter() - t_start + self._earlier_wall_time
-        converged = load >= 1.0 - 1e-12 and not message
+        converged = self.load >= until - 1e-12 and not message
         summary = self.summary(records, wall, converged, message)
         if writer is not None:
             writer.finish(summary)
         if message and self.comm.rank == 0:
             print(f"run stopped: {message}", flush=True)
-        return Result(converged, load, [r for r in records if r["converged"]], records, wall, summary, message)
+        return Result(converged, self.load, [r for r in records if r["converged"]], records, wall, summary, message)
 
     def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
         """The content of summary.json."""

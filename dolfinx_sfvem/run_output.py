@@ -115,7 +115,7 @@ def progress_line(rec: StepRecord) -> str:
     loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
     reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
     return (f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s{reaction}")
+            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  dofs {rec.dofs}{reaction}")
 
 
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:
@@ -128,7 +128,6 @@ class RunWriter:
 
     def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
                  append: bool = False, pressure_at: typing.Iterable[float] = ()):
-        import dolfinx.fem
         self.problem = problem
         self.stepper = stepper
         #: load factors whose contact pressure is still to be plotted (at the first converged step
@@ -138,11 +137,22 @@ class RunWriter:
         if problem.comm.rank == 0:
             self.out.mkdir(parents=True, exist_ok=True)
         problem.comm.barrier()
-        mesh = problem.disc.dolfinx_mesh
-        self.u_p2 = None
-        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(mesh, 1), name="u")
+        self.meshes = 0                    # refinements during the run (:meth:`new_mesh`)
         self.xdmf_path = self.out / "displacement.xdmf"
+        self.new_mesh()
         self.xdmf_started = append and self._readable_xdmf()
+
+    def new_mesh(self) -> None:
+        """Output functions on the problem's current mesh; after a refinement during the run the
+        displacement series goes on in ``displacement_refined<k>.xdmf``, k = 1, 2, ... (one XDMF
+        file per mesh)."""
+        import dolfinx.fem
+        self.u_p2 = None
+        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(self.problem.disc.dolfinx_mesh, 1), name="u")
+        if self.meshes:
+            self.xdmf_path = self.out / f"displacement_refined{self.meshes}.xdmf"
+        self.meshes += 1
+        self.xdmf_started = False
 
     def _readable_xdmf(self) -> bool:
         """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed

@@ -59,6 +59,10 @@ class Step:
         Wall time of the step [s].
     extra : dict name -> value
         The observers' values.
+    dofs : int
+        Unknowns of the mesh the step was solved on (0: not recorded, in files of older versions).
+    refined_polygons : int
+        Polygons split by adaptive refinement after this step (0: none).
     """
 
     load: float
@@ -76,6 +80,8 @@ class Step:
     max_displacement: float | None = None
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = dataclasses.field(default_factory=dict)
+    dofs: int = 0
+    refined_polygons: int = 0
 
     def value(self, key: str) -> float | None:
         """An observer of ``extra``, else a numeric field of the step (e.g. ``max_displacement``);

@@ -417,10 +417,13 @@ class StepRecord:
     max_displacement: float = float("nan")
     wall_time_s: float = 0.0
     extra: dict[str, typing.Any] = field(default_factory=dict)
+    dofs: int = 0                   # unknowns of the mesh the step was solved on
+    refined_polygons: int = 0       # polygons split after this step by adaptive refinement
 
 
 class LoadStepper:
-    """Ramp the load factor λ from its start to 1 in ``steps`` equal increments.
+    """Ramp the load factor λ from ``start`` to ``until`` (default 0 to 1) in increments of
+    ``1 / steps``, the last one shortened to land on ``until``.
 
     A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
     by the caller such as overlapping solids) is retried from the last
@@ -432,16 +435,19 @@ class LoadStepper:
     """
 
     def __init__(self, steps: int, *, min_increment: float | None = None, grow_after: int = 2,
-                 max_attempts: int = 10_000):
+                 max_attempts: int = 10_000, start: float = 0.0, until: float = 1.0):
         if not (isinstance(steps, (int, np.integer)) and steps >= 1):
             raise ValueError(f"steps must be a positive integer, got {steps!r}")
         self.nominal = 1.0 / steps
         self.min_increment = min_increment if min_increment is not None else self.nominal / 2 ** 10
         if not (0 < self.min_increment <= self.nominal):
             raise ValueError(f"min_increment must be in (0, 1/steps], got {self.min_increment}")
+        if not (0.0 <= start <= until <= 1.0):
+            raise ValueError(f"need 0 <= start <= until <= 1, got start = {start}, until = {until}")
         self.grow_after = grow_after
         self.max_attempts = max_attempts
-        self.load, self.increment, self.streak = 0.0, self.nominal, 0
+        self.until = until
+        self.load, self.increment, self.streak = float(start), self.nominal, 0
 
     def state(self) -> dict[str, float]:
         return {"load": self.load, "increment": self.increment, "streak": self.streak}
@@ -460,9 +466,9 @@ class LoadStepper:
         increment.
         """
         for _ in range(self.max_attempts):
-            if self.load >= 1.0 - 1e-12:
+            if self.load >= self.until - 1e-12:
                 return
-            target = min(self.load + self.increment, 1.0)
+            target = min(self.load + self.increment, self.until)
             saved = x.copy()
             t0 = time.perf_counter()
             result = solve_to(target)

@@ -232,18 +232,19 @@ def gathered_state(problem: sf.ContactProblem) -> np.ndarray:
 
 @pytest.mark.mpi
 def test_continued_load_path_matches_the_refined_mesh_from_the_start():
-    """A block compressed to half the load on a coarse mesh, refined in its upper half, then
-    continued to the full load from the transferred state (its first step lands on the load it
-    stopped at), passes through the states of the refined mesh solved from the start."""
+    """A block compressed to half the load on a coarse mesh (``until``), refined in its upper
+    half, then continued to the full load from the transferred state (``from_current_state``:
+    a re-balancing step at the load reached, then the rest of the path) passes through the
+    states of the refined mesh solved from the start."""
     coarse = sf.meshes.quad_rectangle(1.0, 1.0, 3, 3, tag=SOLID)
     upper = lambda x: x[1] > 0.5                                              # noqa: E731
-    continued = compressed_block(coarse, uy=-0.03)
-    assert continued.solve(steps=1).converged
+    continued = compressed_block(coarse)
+    half = continued.solve(steps=2, until=0.5)
+    assert half.converged and continued.load == pytest.approx(0.5) and len(half.steps) == 1
     continued.refine(upper)
-    top = next(bc for bc in continued.bcs if bc.name == "top")
-    top.values = {0: 0.02, 1: -0.06}                                          # twice the load reached
     after = continued.solve(steps=2, from_current_state=True)
-    assert after.converged and after.steps[0]["newton_iterations"] <= 3
+    assert after.converged and [s["load"] for s in after.steps] == pytest.approx([0.5, 1.0])
+    assert after.steps[0]["newton_iterations"] <= 3 and after.steps[0]["dofs"] > half.steps[0]["dofs"]
 
     reference = compressed_block(coarse.refine(upper).mesh)
     ref = reference.solve(steps=2)
@@ -252,6 +253,17 @@ def test_continued_load_path_matches_the_refined_mesh_from_the_start():
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-8 * np.abs(u_ref).max())
     for step, step_ref in zip(after.steps, ref.steps):
         np.testing.assert_allclose(step["reaction"]["top"], step_ref["reaction"]["top"], rtol=1e-7)
+
+
+def test_continuation_input_is_checked():
+    problem = compressed_block(sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, tag=SOLID))
+    with pytest.raises(ValueError, match="until must be a load factor"):
+        problem.solve(steps=2, until=1.5)
+    assert problem.solve(steps=2, until=0.5).converged
+    with pytest.raises(ValueError, match="lies below the load factor 0.5"):
+        problem.solve(steps=2, until=0.25, from_current_state=True)
+    problem.reset()
+    assert problem.load == 0.0
 
 
 @pytest.mark.mpi

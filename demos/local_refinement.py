@@ -1,0 +1,176 @@
+"""Local refinement study: uniform SFVEM, SFVEM refined only where contact happens (static and
+adaptive) and uniform FEM on the C-box (u_y = -0.5) and the box, against the finest uniform SFVEM.
+
+Each run is one load path of the demo's problem (demos/cbox.py, demos/box_self_contact.py, their
+default parameters) on one rank; the table gives the unknowns at the end, the final reaction
+-R_y at the load point, the final gap (C-box: smallest gap between the solids; box: gap between
+the flanges at mid-span), the wall time of the solve and the differences to the reference.
+Writes ``--page`` (default docs/local-refinement-study.md) and ``study.json`` in ``--out``.
+
+    python3 demos/local_refinement.py                       # the study of the docs (~25 min, runs < 8 min)
+    python3 demos/local_refinement.py --quick --out /tmp/s  # two coarse C-box runs (tests)
+    python3 demos/local_refinement.py --page-only           # the page again from out/.../study.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+import time
+import typing
+from dataclasses import asdict, dataclass
+
+import box_self_contact
+import cbox
+
+import dolfinx_sfvem as sf
+
+#: the region where contact happens, marked on polygon centroids: C-box beam tips, box mid-span
+CONTACT_REGION = {"cbox": lambda x: x[0] > 0.5, "box": lambda x: abs(x[0] - 1.0) < 0.45}
+
+
+@dataclass
+class Run:
+    """One row of the study: how the mesh was made and what the run gave."""
+    problem: str
+    label: str
+    method: str
+    converged: bool
+    dofs: int
+    force: float            # -R_y at the load point at the last converged step
+    gap: float
+    wall_time_s: float
+    newton_iterations: int
+
+
+@dataclass
+class Case:
+    """A run to make: the demo's arguments and how to refine before or during the path."""
+    problem: str
+    label: str
+    argv: list[str]
+    levels: int = 0                          # static refinement of the medium in CONTACT_REGION
+    adapt: sf.Adaptivity | None = None
+
+
+def solve(case: Case, quiet: bool) -> Run:
+    """Build the demo's problem, refine as the case says, solve; the row of the table."""
+    demo = cbox if case.problem == "cbox" else box_self_contact
+    args = demo.make_parser().parse_args(case.argv)
+    problem, observers = demo.build(args)
+    problem.verbose = not quiet
+    if case.levels:
+        for _ in range(case.levels):         # one level at a time (docs/refinement-local.md)
+            problem.refine(CONTACT_REGION[case.problem], tags=[sf.meshes.MEDIUM])
+    t0 = time.perf_counter()
+    result = problem.solve(args.steps, observers=observers, adapt=case.adapt)
+    wall = time.perf_counter() - t0
+    last = result.steps[-1] if result.steps else None
+    gap = (last["extra"]["gap"] if case.problem == "box" else last["gap"]["value"]) if last else float("nan")
+    return Run(case.problem, case.label, args.method, result.converged, int(problem.disc.num_dofs_global),
+               -last["reaction"]["load"][1] if last else float("nan"), float(gap), wall,
+               sum(a["newton_iterations"] for a in result.attempts))
+
+
+def cases(quick: bool) -> list[Case]:
+    """The runs of the study (``quick``: two coarse C-box runs before contact)."""
+    if quick:
+        small = ["--uy", "-0.15", "--steps", "4", "--h", "0.1"]
+        return [Case("cbox", "uniform h = 0.1", small),
+                Case("cbox", "h = 0.1, adaptive", small, adapt=sf.Adaptivity(sf.Compression(0.95), max_levels=1))]
+    out: list[Case] = []
+    for name, hs, coarse, fem_hs in (("cbox", (0.1, 0.05, 0.025), 0.05, (0.1, 0.05, 0.025)),
+                                     ("box", (0.05, 0.025), 0.05, (0.05, 0.025))):
+        out += [Case(name, f"uniform h = {h:g}", ["--h", str(h)]) for h in hs]
+        out += [Case(name, f"h = {coarse:g}, contact region {k} level{'s' * (k > 1)}", ["--h", str(coarse)], levels=k)
+                for k in (1, 2)]
+        out.append(Case(name, f"h = {coarse:g}, adaptive (J < 0.8, 2 levels)", ["--h", str(coarse)],
+                        adapt=sf.Adaptivity(sf.Compression(0.8), max_levels=2)))
+        out += [Case(name, f"uniform h = {h:g}", ["--h", str(h), "--method", "fem"]) for h in fem_hs]
+    return out
+
+
+def table(runs: list[Run], problem: str) -> str:
+    """Markdown table of one problem's runs against its finest uniform SFVEM run."""
+    mine = [r for r in runs if r.problem == problem]
+    ref = _reference(mine)
+    lines = ["| method | mesh | converged | unknowns | force -R_y | vs reference | gap | gap - reference | "
+             "Newton its | wall [s] |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in mine:
+        rel = f"{100 * (r.force / ref.force - 1):+.2f} %" if ref else ""
+        dgap = f"{r.gap - ref.gap:+.2e}" if ref else ""
+        lines.append(f"| {r.method.upper() if r.method == 'fem' else 'SFVEM'} | {r.label} | "
+                     f"{'yes' if r.converged else 'no'} | {r.dofs} | {r.force:.6e} | {rel} | {r.gap:.4e} | {dgap} | "
+                     f"{r.newton_iterations} | {r.wall_time_s:.1f} |")
+    if ref:
+        lines.append(f"\nReference: SFVEM {ref.label} ({ref.dofs} unknowns).")
+    return "\n".join(lines)
+
+
+def _reference(runs: list[Run]) -> Run | None:
+    uniform = [r for r in runs if r.method == "vem" and r.label.startswith("uniform") and r.converged]
+    return max(uniform, key=lambda r: r.dofs) if uniform else None
+
+
+def verdict(runs: list[Run], problem: str, tolerance: float = 0.01) -> str:
+    """Which runs other than the reference reach its force within ``tolerance``, and the cheapest
+    of each kind (uniform SFVEM, local SFVEM, uniform FEM) in unknowns and wall time."""
+    mine = [r for r in runs if r.problem == problem]
+    ref = _reference(mine)
+    if ref is None:
+        return "No converged uniform SFVEM run: no reference."
+    close = [r for r in mine if r is not ref and r.converged and abs(r.force / ref.force - 1) <= tolerance]
+    kinds = {"uniform SFVEM": [r for r in close if r.method == "vem" and r.label.startswith("uniform")],
+             "locally refined SFVEM": [r for r in close if r.method == "vem" and not r.label.startswith("uniform")],
+             "uniform FEM": [r for r in close if r.method == "fem"]}
+    lines = [f"Within {100 * tolerance:g} % of the reference force ({ref.force:.6e}):"]
+    for kind, rs in kinds.items():
+        if rs:
+            best = min(rs, key=lambda r: r.dofs)
+            lines.append(f"- {kind}: cheapest {best.label}, {best.dofs} unknowns ({best.dofs / ref.dofs:.2f} x the "
+                         f"reference's), {best.wall_time_s:.1f} s ({best.wall_time_s / ref.wall_time_s:.2f} x), "
+                         f"gap {best.gap - ref.gap:+.2e} from the reference's")
+        else:
+            lines.append(f"- {kind}: none")
+    return "\n".join(lines)
+
+
+def page(runs: list[Run], command: str) -> str:
+    """The study page (Markdown)."""
+    return "\n\n".join([
+        "# Local refinement study",
+        "Written by `demos/local_refinement.py` (" + command + "); what the tables mean, how the "
+        "meshes are made and what to read from them: [refinement-local.md](refinement-local.md). One rank, "
+        "on a machine shared with other jobs: compare wall times within a table only.",
+        "## C-box", table(runs, "cbox"), verdict(runs, "cbox"),
+        "## Box", table(runs, "box"), verdict(runs, "box"),
+    ]) + "\n"
+
+
+def main(argv: typing.Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out") / "local-refinement")
+    p.add_argument("--page", type=pathlib.Path, default=pathlib.Path(__file__).resolve().parents[1] / "docs"
+                   / "local-refinement-study.md")
+    p.add_argument("--quick", action="store_true", help="two coarse C-box runs before contact (for the tests)")
+    p.add_argument("--only", choices=("cbox", "box"), default=None, help="one problem only")
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--page-only", action="store_true", help="write the page from --out/study.json, run nothing")
+    args = p.parse_args(argv)
+    if args.page_only:
+        runs = [Run(**r) for r in json.loads((args.out / "study.json").read_text())]
+    else:
+        args.out.mkdir(parents=True, exist_ok=True)
+        runs = []
+        for case in (c for c in cases(args.quick) if args.only in (None, c.problem)):
+            runs.append(solve(case, args.quiet))             # study.json after every run: nothing lost
+            (args.out / "study.json").write_text(json.dumps([asdict(r) for r in runs], indent=1))
+    command = "python3 demos/local_refinement.py" + (" --quick" if args.quick else "")
+    args.page.write_text(page(runs, command))
+    print(f"wrote {args.page} and {args.out / 'study.json'}")
+    return 0 if all(r.converged for r in runs) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
