@@ -36,10 +36,9 @@ import typing
 
 from dolfinx_sfvem import markdown
 from dolfinx_sfvem.run_summary import RunSummary, read_summary
-from results import print_plan
-from results_plan import METHODS, REPO, Run, select
+from results import select_and_execute
+from results_plan import METHODS, REPO, Run
 from results_report import field, final_step, fmt, force, machine, method_label, relative, status
-from results_runner import execute
 
 
 @dataclasses.dataclass(frozen=True)
@@ -196,14 +195,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     root = args.out / ("refinement-quick" if args.quick else "refinement")
     docs = args.docs or (root / "docs" if args.quick else REPO / "docs")
     entries = plan(args.quick, args.np)
-    try:
-        selected = select([run for *_, run in entries], args.only)
-    except ValueError as err:
-        raise SystemExit(str(err)) from None
-    if args.list:
-        print_plan(selected, root, args.retry_failed)
+    step = select_and_execute([run for *_, run in entries], args, root)
+    if step is None:
         return 0
-    completed, codes = (True, {}) if args.report_only else execute(selected, root, args.retry_failed)
+    selected, completed, _ = step
     docs.mkdir(parents=True, exist_ok=True)
     _, fine = report(entries, root, docs, args.np)
     print(f"wrote {docs / 'refinement.md'}", flush=True)

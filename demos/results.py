@@ -79,6 +79,22 @@ def make_parser() -> argparse.ArgumentParser:
     return p
 
 
+def select_and_execute(runs: typing.Sequence[Run], args: argparse.Namespace, root: pathlib.Path
+                       ) -> tuple[list[Run], bool, dict[str, int]] | None:
+    """The runs ``--only`` selects (SystemExit naming a bad selection); None after printing their
+    plan with ``--list``; else the selected runs with :func:`execute`'s (completed, exit codes),
+    nothing run with ``--report-only``. Shared by the results page and the refinement study."""
+    try:
+        selected = select(runs, args.only)
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
+    if args.list:
+        print_plan(selected, root, args.retry_failed)
+        return None
+    completed, codes = (True, {}) if args.report_only else execute(selected, root, args.retry_failed)
+    return selected, completed, codes
+
+
 def print_plan(runs: typing.Sequence[Run], root: pathlib.Path, retry_failed: bool) -> None:
     """One line per run: state, ranks, estimate, command; then the total still to make."""
     left = {r.name: remaining(r, root, retry_failed) for r in runs}
@@ -98,14 +114,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     root = args.out / ("results-quick" if args.quick else "results")
     docs = args.docs or (root / "docs" if args.quick else REPO / "docs")
     runs = plan(args.quick, args.np)
-    try:
-        selected = select(runs, args.only)
-    except ValueError as err:
-        raise SystemExit(str(err)) from None
-    if args.list:
-        print_plan(selected, root, args.retry_failed)
+    step = select_and_execute(runs, args, root)
+    if step is None:
         return 0
-    completed, codes = (True, {}) if args.report_only else execute(selected, root, args.retry_failed)
+    selected, completed, codes = step
     checks = write_report(runs, root, docs, args.quick)
     print("Table 2 acceptance:")
     for check in checks:
