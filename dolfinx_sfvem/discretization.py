@@ -98,18 +98,20 @@ class Constraints:
     """Dirichlet constraints u_c = g_c, imposed by symmetric elimination with lifting.
 
     Newton's step of a load step moves the constrained unknowns to their new values, δ_c =
-    x_c - g_c, and the free rows carry the consistent response K_ff δ_f = F_f - K_fc δ_c
-    (docs/method.md §6). The tangent keeps this symmetric: the rows *and columns* of the
-    constrained unknowns become identity rows and columns, and the coupling K_fc δ_c moves to
-    the residual (the lifting, :meth:`lift`), so that a symmetric factorization (MUMPS LDL^T)
-    can be used and reports the tangent's inertia. The state is never overwritten with the
-    new boundary values before a solve. This class is the only place that knows how
-    constraints enter the linear system.
+    x_c - g_c (the residual of a constrained row), and the free rows carry the consistent
+    response K_ff δ_f = F_f - K_fc δ_c (docs/method.md §6). The tangent keeps this symmetric:
+    its rows *and columns* of the constrained unknowns become identity rows and columns, and the
+    coupling K_fc δ_c moves to the right-hand side of the linear solve (the lifting,
+    :meth:`eliminate`),
 
-    The lifting is taken with the tangent at the start of a solve, K_fc(x_0) (x_0,c - g). Along
-    Newton's iterates x_c - g only shrinks by the line search's factors (δ_c = x_c - g), so
-    the residual's lifting at a later state is that vector scaled by s = (x_c - g)·d_0 / d_0·d_0,
-    d_0 = x_0,c - g: zero once a full step has been taken.
+        [K_ff  0] [δ_f]   [F_f - K_fc δ_c]
+        [0     I] [δ_c] = [δ_c           ]
+
+    so that a symmetric factorization (MUMPS LDL^T) can be used and reports the tangent's
+    inertia, while the step is the row elimination's. The residual itself is never lifted: its
+    norm, the convergence test and the line search see ``[F_f; x_c - g_c]``. The state is never
+    overwritten with the new boundary values before a solve. This class is the only place
+    that knows how constraints enter the linear system.
 
     Parameters
     ----------
@@ -128,52 +130,33 @@ class Constraints:
         #: owned constrained and owned free unknowns (local indices)
         self.owned = np.flatnonzero(self.mask[:n_owned])
         self.owned_free = np.flatnonzero(~self.mask[:n_owned])
-        self._lifting: PETSc.Vec | None = None     # K_fc(x_0) d_0 on the free rows, 0 on the constrained
-        self._d0 = np.zeros(0)                     # d_0 = x_0,c - g on the owned constrained unknowns
-        self._d0_dot = 0.0                         # d_0 · d_0 over all ranks
-
-    def _values(self, x: PETSc.Vec) -> np.ndarray:
-        """The owned constrained values of x, (len(owned),)."""
-        with x.localForm() as xl:
-            return xl.array_r[self.owned].copy()
-
-    def lift(self, K: PETSc.Mat, x0: PETSc.Vec, g: np.ndarray) -> None:
-        """Take the lifting of a solve that starts at ``x0`` with prescribed values ``g``
-        (len(owned),): K_fc(x_0) (x_0,c - g) from the assembled tangent ``K`` at x0, constraints
-        not yet applied (collective)."""
-        self._d0 = self._values(x0) - g
-        d = K.createVecRight()
-        d.set(0.0)
-        d.getArray()[self.owned] = self._d0
-        self._lifting = K.createVecLeft()
-        K.mult(d, self._lifting)
-        self._lifting.getArray()[self.owned] = 0.0
-        self._d0_dot = d.dot(d)
-        d.destroy()
 
     def set_residual_rows(self, x: PETSc.Vec, b: PETSc.Vec, g: np.ndarray) -> None:
         """b_c = x_c - g_c on the owned constrained rows; ``g`` (len(owned),) the prescribed values."""
-        b.getArray()[self.owned] = self._values(x) - g
+        with x.localForm() as xl:
+            b.getArray()[self.owned] = xl.array_r[self.owned] - g
 
-    def apply_lifting(self, x: PETSc.Vec, b: PETSc.Vec, g: np.ndarray) -> None:
-        """The free rows of b less the lifting scaled to the state x (class docstring): the
-        residual that goes with the symmetrically eliminated tangent (collective)."""
-        if self._lifting is None or self._d0_dot == 0.0:
-            return
-        offset = self._values(x) - g
-        s = b.getComm().tompi4py().allreduce(float(offset @ self._d0), op=MPI.SUM) / self._d0_dot
-        if s != 0.0:
-            b.axpy(-s, self._lifting)
-
-    def eliminate(self, A: PETSc.Mat) -> None:
+    def eliminate(self, A: PETSc.Mat, b: PETSc.Vec | None = None) -> None:
         """Constrained rows and columns of the assembled tangent A become identity rows and
-        columns (symmetric elimination; the coupling goes to the residual by :meth:`lift`).
+        columns (symmetric elimination), and the right-hand side ``b`` gets the lifting.
 
-        A must keep its nonzero pattern when rows are zeroed (``KEEP_NONZERO_PATTERN``) and hold
-        its diagonal in the pattern.
+        Parameters
+        ----------
+        A
+            The tangent, assembled; keeps its nonzero pattern when rows are zeroed
+            (``KEEP_NONZERO_PATTERN``) and holds its diagonal in the pattern.
+        b
+            None, or the residual at the same state with its constrained rows set
+            (:meth:`set_residual_rows`): its free rows become F_f - K_fc δ_c with the K_fc of A
+            before the elimination, its constrained rows stay δ_c (collective).
         """
-        rows = A.getOwnershipRange()[0] + self.owned
-        A.zeroRowsColumns(rows.astype(PETSc.IntType), diag=1.0)
+        rows = (A.getOwnershipRange()[0] + self.owned).astype(PETSc.IntType)
+        if b is None:
+            A.zeroRowsColumns(rows, diag=1.0)
+            return
+        delta = b.copy()
+        A.zeroRowsColumns(rows, 1.0, delta, b)
+        delta.destroy()
 
 
 class Discretization(abc.ABC):

@@ -210,9 +210,10 @@ class NewtonSolver:
         self.force = disc.create_vector()
         self._force_state = disc.create_vector()
         self._force_info = None
+        self._unlifted = disc.create_vector()  # SNES's residual before the lifting of _jacobian
+        self._lifted = False                   # b holds the lifted right-hand side of the linear solve
         self._start_state = disc.create_vector()
-        self._start_state_current = False     # A holds the eliminated tangent at _start_state
-        self._norm0: float | None = None      # ||F(x_0)|| of the current solve, for snes_rtol
+        self._start_state_current = False     # A holds the tangent at _start_state, constraints not applied
         self.history: list[float] = []
         self.worst_info = None      # smallest J met at any trial point of the current solve
 
@@ -220,13 +221,13 @@ class NewtonSolver:
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
         snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
-        snes.setConvergenceTest(self._converged)
         self.options = dict(options or {})
         self.fallback = not (PETSc.Options().hasName("snes_linesearch_type")
                              or any(k.lstrip("-") == "snes_linesearch_type" for k in self.options))
         with _scoped_options(options):
             snes.setFromOptions()
             self.scaled_atol = not PETSc.Options().hasName("snes_atol")
+        snes.setLineSearchPreCheck(self._unlift)
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -238,48 +239,40 @@ class NewtonSolver:
         b.copy(self.force)
         x.copy(self._force_state)
         self._force_info = info
+        self._lifted = False
         self.disc.constraints.set_residual_rows(x, b, self.g)
-        if self._norm0 is None:                  # the start state's residual without the lifting
-            self._norm0 = b.norm()
-        self.disc.constraints.apply_lifting(x, b, self.g)
         if not info.admissible:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if not self._start_tangent_at(x):
-            self.disc.jacobian(x, A)
+            self.disc.assemble_tangent(x, A)
         self._start_state_current = False
         if self.scaled_atol:
             snes.setTolerances(atol=self.absolute_tolerance(x))
+        # SNES solves A y = F with its F at x (self.b, just evaluated): the constraints' lifting goes
+        # into F for the linear solve, and :meth:`_unlift` puts the residual back before the line search
+        self.b.copy(self._unlifted)
+        self.disc.constraints.eliminate(A, self.b)
+        self._lifted = True
 
-    def _converged(self, snes: PETSc.SNES, it: int, norms: tuple[float, float, float]) -> int:
-        """SNES's default test (atol, rtol, stol, max_it, NaN), with rtol relative to the start
-        state's residual without the lifting of the constraints: the norm the row elimination
-        would have, so that the lifting does not loosen the relative tolerance."""
-        _xnorm, snorm, fnorm = norms
-        rtol, atol, stol, max_it = snes.getTolerances()
-        R = PETSc.SNES.ConvergedReason
-        if not np.isfinite(fnorm):
-            return R.DIVERGED_FNORM_NAN
-        if fnorm < atol:
-            return R.CONVERGED_FNORM_ABS
-        if it > 0 and fnorm <= rtol * self._norm0:
-            return R.CONVERGED_FNORM_RELATIVE
-        if it > 0 and snorm < stol * _xnorm:
-            return R.CONVERGED_SNORM_RELATIVE
-        if it >= max_it:
-            return R.DIVERGED_MAX_IT
-        return R.CONVERGED_ITERATING
+    def _unlift(self, x: PETSc.Vec, y: PETSc.Vec, *args) -> bool:
+        """Line-search pre-check: SNES's residual F at x back in place of the lifted right-hand
+        side of the linear solve, so that the line search works with the residual whose norm SNES
+        tests (its slope F·(A y) is then exact up to F_f·K_fc δ_c, zero when F_f or δ_c is); the
+        step y is left unchanged. Nothing to do after a lagged Jacobian (F was not lifted)."""
+        if self._lifted:
+            self._unlifted.copy(self.b)
+            self._lifted = False
+        return False
 
     def _start(self, x: PETSc.Vec) -> None:
-        """The tangent at the start state ``x`` of a solve: its free-row norm (tolerance), the
-        constraints' lifting (:meth:`Constraints.lift`), then eliminated into :attr:`A`, which the
-        first Jacobian evaluation (at this state) uses as it is (collective)."""
+        """The tangent at the start state ``x`` of a solve into :attr:`A`, constraints not applied:
+        its free-row norm sets the absolute tolerance before the first iteration, and the first
+        Jacobian evaluation (at this state) uses it as it is (collective)."""
         self.disc.assemble_tangent(x, self.A)
         self._stiffness = self._free_row_norm(self.A)
-        self.disc.constraints.lift(self.A, x, self.g)
-        self.disc.constraints.eliminate(self.A)
         x.copy(self._start_state)
         self._start_state_current = True
 
@@ -352,6 +345,7 @@ class NewtonSolver:
         """Set SNES up again from this solver's options with the line search ``kind``."""
         with _scoped_options({**self.options, "snes_linesearch_type": kind}):
             self.snes.setFromOptions()
+        self.snes.setLineSearchPreCheck(self._unlift)
 
     def _solve_once(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
         """One SNES solve from ``x`` with the line search as set (see :meth:`solve`)."""
@@ -359,7 +353,6 @@ class NewtonSolver:
         self.load = load
         self.history = []
         self.worst_info = None
-        self._norm0 = None
         self._start(x)
         if self.scaled_atol:
             self.snes.setTolerances(atol=self.absolute_tolerance(x))

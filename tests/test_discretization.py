@@ -53,21 +53,24 @@ def test_registered_constraints_eliminate_rows_and_columns(method):
     assert np.allclose(y_cc.array[c], d.array[c], rtol=0, atol=1e-14)          # identity rows
     assert np.allclose(y_cc.array[~c], y_f.array[~c], rtol=1e-13, atol=scale)  # columns gone: K_ff d_f
 
-    # the lifting: with the start state x_0 = x and prescribed g, the symmetric system's step is
-    # the row elimination's, K_ff δ_f = F_f - K_fc δ_c with δ_c = x_c - g
+    # the lifting: with prescribed g, the symmetric system's right-hand side gives the step of the
+    # row elimination, K_ff δ_f = F_f - K_fc δ_c with δ_c = x_c - g
     g = x.array[c] - d.array[c]                           # so that δ_c = d_c
     disc.set_constraints(disc.constraints.owned)
     K = disc.create_matrix()
     disc.assemble_tangent(x, K)
-    disc.constraints.lift(K, x, g)
     b = disc.create_vector()
     disc.residual(x, b)
     free = b.array[~c].copy()
     disc.constraints.set_residual_rows(x, b, g)
     assert np.array_equal(b.array[c], x.array[c] - g)
     assert np.array_equal(b.array[~c], free)
-    disc.constraints.apply_lifting(x, b, g)
+    disc.constraints.eliminate(K, b)
+    assert np.allclose(b.array[c], x.array[c] - g, rtol=0, atol=1e-14)
     assert np.allclose(b.array[~c], free - y_c.array[~c], rtol=1e-13, atol=scale)
+    K.mult(d, y_cc)                                       # and K is A_c: the same elimination
+    assert np.allclose(y_cc.array[c], d.array[c], rtol=0, atol=1e-14)
+    assert np.allclose(y_cc.array[~c], y_f.array[~c], rtol=1e-13, atol=scale)
 
 
 def test_constraints_outside_the_local_unknowns_are_rejected():
