@@ -5,9 +5,11 @@ Each run is one load path of the demo's problem (demos/cbox.py, demos/box_self_c
 default parameters) on one rank; the table gives the unknowns at the end, the final reaction
 -R_y at the load point, the final gap (C-box: smallest gap between the solids; box: gap between
 the flanges at mid-span), the wall time of the solve and the differences to the reference.
-Writes ``--page`` (default docs/local-refinement-study.md) and ``study.json`` in ``--out``.
+Writes ``--page`` (default docs/local-refinement-study.md) and ``study.json`` in ``--out``, the
+latter after every run: a study that stopped continues with the runs it lacks (``--fresh`` runs
+all again).
 
-    python3 demos/local_refinement.py                       # the study of the docs (~25 min, runs < 8 min)
+    python3 demos/local_refinement.py                       # the study of the docs (~40 min on one core)
     python3 demos/local_refinement.py --quick --out /tmp/s  # two coarse C-box runs (tests)
     python3 demos/local_refinement.py --page-only           # the page again from out/.../study.json
 """
@@ -42,6 +44,8 @@ class Run:
     gap: float
     wall_time_s: float
     newton_iterations: int
+    load: float = 1.0       # load factor reached
+    message: str = ""       # why the run stopped short ("" if converged)
 
 
 @dataclass
@@ -51,6 +55,7 @@ class Case:
     label: str
     argv: list[str]
     levels: int = 0                          # static refinement of the medium in CONTACT_REGION
+    solid_levels: int = 0                    # static refinement of all solid polygons, before that
     adapt: sf.Adaptivity | None = None
 
 
@@ -60,9 +65,10 @@ def solve(case: Case, quiet: bool) -> Run:
     args = demo.make_parser().parse_args(case.argv)
     problem, observers = demo.build(args)
     problem.verbose = not quiet
-    if case.levels:
-        for _ in range(case.levels):         # one level at a time (docs/refinement-local.md)
-            problem.refine(CONTACT_REGION[case.problem], tags=[sf.meshes.MEDIUM])
+    for _ in range(case.solid_levels):       # one level at a time (docs/refinement-local.md)
+        problem.refine(tags=[sf.meshes.SOLID])
+    for _ in range(case.levels):
+        problem.refine(CONTACT_REGION[case.problem], tags=[sf.meshes.MEDIUM])
     t0 = time.perf_counter()
     result = problem.solve(args.steps, observers=observers, adapt=case.adapt)
     wall = time.perf_counter() - t0
@@ -70,7 +76,7 @@ def solve(case: Case, quiet: bool) -> Run:
     gap = (last["extra"]["gap"] if case.problem == "box" else last["gap"]["value"]) if last else float("nan")
     return Run(case.problem, case.label, args.method, result.converged, int(problem.disc.num_dofs_global),
                -last["reaction"]["load"][1] if last else float("nan"), float(gap), wall,
-               sum(a["newton_iterations"] for a in result.attempts))
+               sum(a["newton_iterations"] for a in result.attempts), float(result.load), result.message)
 
 
 def cases(quick: bool) -> list[Case]:
@@ -80,15 +86,23 @@ def cases(quick: bool) -> list[Case]:
         return [Case("cbox", "uniform h = 0.1", small),
                 Case("cbox", "h = 0.1, adaptive", small, adapt=sf.Adaptivity(sf.Compression(0.95), max_levels=1))]
     out: list[Case] = []
-    for name, hs, coarse, fem_hs in (("cbox", (0.1, 0.05, 0.025), 0.05, (0.1, 0.05, 0.025)),
-                                     ("box", (0.05, 0.025), 0.05, (0.05, 0.025))):
+    for name, hs, coarse, fem_hs in (("cbox", (0.1, 0.05, 0.025, 0.0125), 0.05, (0.1, 0.05, 0.025, 0.0125)),
+                                     ("box", (0.05, 0.025, 0.0125), 0.05, (0.05, 0.025))):
         out += [Case(name, f"uniform h = {h:g}", ["--h", str(h)]) for h in hs]
         out += [Case(name, f"h = {coarse:g}, contact region {k} level{'s' * (k > 1)}", ["--h", str(coarse)], levels=k)
                 for k in (1, 2)]
+        out += [Case(name, f"h = {coarse:g}, solids 1 level{', contact region 1 level' * k}", ["--h", str(coarse)],
+                     levels=k, solid_levels=1) for k in (0, 1)]
+        out.append(Case(name, f"h = {coarse:g}, adaptive (near contact, 0.1, 1 level)", ["--h", str(coarse)],
+                        adapt=sf.Adaptivity(sf.NearContact(0.1), max_levels=1)))
         out.append(Case(name, f"h = {coarse:g}, adaptive (J < 0.8, 2 levels)", ["--h", str(coarse)],
                         adapt=sf.Adaptivity(sf.Compression(0.8), max_levels=2)))
         out += [Case(name, f"uniform h = {h:g}", ["--h", str(h), "--method", "fem"]) for h in fem_hs]
     return out
+
+
+def _method(case: Case) -> str:
+    return "fem" if "fem" in case.argv else "vem"
 
 
 def table(runs: list[Run], problem: str) -> str:
@@ -101,10 +115,12 @@ def table(runs: list[Run], problem: str) -> str:
         rel = f"{100 * (r.force / ref.force - 1):+.2f} %" if ref else ""
         dgap = f"{r.gap - ref.gap:+.2e}" if ref else ""
         lines.append(f"| {r.method.upper() if r.method == 'fem' else 'SFVEM'} | {r.label} | "
-                     f"{'yes' if r.converged else 'no'} | {r.dofs} | {r.force:.6e} | {rel} | {r.gap:.4e} | {dgap} | "
+                     f"{'yes' if r.converged else f'no, load {r.load:.3g}'} | {r.dofs} | {r.force:.6e} | {rel} | {r.gap:.4e} | {dgap} | "
                      f"{r.newton_iterations} | {r.wall_time_s:.1f} |")
     if ref:
         lines.append(f"\nReference: SFVEM {ref.label} ({ref.dofs} unknowns).")
+    lines += [f"\nStopped: {r.label} ({r.method.upper() if r.method == 'fem' else 'SFVEM'}): {r.message}"
+              for r in mine if not r.converged]
     return "\n".join(lines)
 
 
@@ -157,15 +173,24 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     p.add_argument("--only", choices=("cbox", "box"), default=None, help="one problem only")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--page-only", action="store_true", help="write the page from --out/study.json, run nothing")
+    p.add_argument("--fresh", action="store_true", help="run every case again (default: the runs already in "
+                   "--out/study.json are kept and only the missing ones are run)")
     args = p.parse_args(argv)
-    if args.page_only:
-        runs = [Run(**r) for r in json.loads((args.out / "study.json").read_text())]
-    else:
-        args.out.mkdir(parents=True, exist_ok=True)
-        runs = []
-        for case in (c for c in cases(args.quick) if args.only in (None, c.problem)):
-            runs.append(solve(case, args.quiet))             # study.json after every run: nothing lost
-            (args.out / "study.json").write_text(json.dumps([asdict(r) for r in runs], indent=1))
+    record = args.out / "study.json"
+    if args.fresh and record.exists():
+        record.unlink()
+    done = {(r.problem, r.label, r.method): r for r in map(lambda r: Run(**r), json.loads(record.read_text()))} \
+        if record.exists() else {}
+    runs = []
+    for case in (c for c in cases(args.quick) if args.only in (None, c.problem)):
+        run = done.get((case.problem, case.label, _method(case)))
+        if run is None and not args.page_only:
+            run = solve(case, args.quiet)
+            done[(run.problem, run.label, run.method)] = run
+            args.out.mkdir(parents=True, exist_ok=True)     # study.json after every run: nothing lost
+            record.write_text(json.dumps([asdict(r) for r in done.values()], indent=1))
+        if run is not None:
+            runs.append(run)
     command = "python3 demos/local_refinement.py" + (" --quick" if args.quick else "")
     args.page.write_text(page(runs, command))
     print(f"wrote {args.page} and {args.out / 'study.json'}")
