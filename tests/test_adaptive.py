@@ -148,6 +148,14 @@ def test_study_script_reduced_run(tmp_path):
     assert "| SFVEM | h = 0.1, adaptive | yes | " + str(adaptive["dofs"]) in text
     assert "Reference: SFVEM uniform h = 0.1" in text
 
+    # a second call keeps the recorded runs and runs only the missing one
+    (tmp_path / "study.json").write_text(json.dumps([uniform]))
+    proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
+                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    again = json.loads((tmp_path / "study.json").read_text())
+    assert again[0] == uniform and again[1]["label"] == "h = 0.1, adaptive" and again[1]["dofs"] == adaptive["dofs"]
+
 
 def test_demo_displacement_observer_follows_a_refinement():
     """The demos' point observers find their node again on a refined mesh."""
