@@ -18,7 +18,8 @@ Newton iteration are wrapped and timed (``instrument.StageTimer``, inclusive tim
 - ``reactions``, ``output`` (XDMF, checkpoint, summary, CSV per step), ``output_final``
   (pictures at the end);
 - ``solve_s``: the whole ``problem.solve`` (the time to full load a user waits for, after
-  set-up and a first residual and tangent that hold numba's compilation or cache loading);
+  set-up and a first residual and tangent on a coarser mesh that hold numba's compilation or
+  cache loading);
 - linear solve from PETSc's events: factorization (PCSetUp) + solve (KSPSolve, KSPSetUp).
 
 Also recorded: set-up time (mesh + discretization), unknowns, Newton iterations (failed
