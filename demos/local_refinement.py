@@ -187,8 +187,8 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     record = args.out / "study.json"
     if args.fresh and record.exists():
         record.unlink()
-    done = {(r.problem, r.label, r.method): r for r in map(lambda r: Run(**r), json.loads(record.read_text()))} \
-        if record.exists() else {}
+    recorded = [Run(**r) for r in json.loads(record.read_text())] if record.exists() else []
+    done = {(r.problem, r.label, r.method): r for r in recorded}
     runs = []
     for case in (c for c in cases(args.quick) if args.only in (None, c.problem)):
         run = done.get((case.problem, case.label, _method(case)))
