@@ -80,7 +80,7 @@ def measure(demo_argv: typing.Sequence[str], repeats: int) -> dict:
     problem, _ = demo.build(args)
     result = problem.solve(args.steps, out=None)
     disc = problem.disc
-    disc.set_constraints(problem._constraints()[0])
+    disc.set_constraints(problem.constraints().dofs)
     A = disc.create_matrix()
     problem.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     disc.jacobian(problem.x, A)                   # the constraints of the solve, eliminated symmetrically

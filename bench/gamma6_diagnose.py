@@ -29,7 +29,19 @@ sys.path.insert(0, str(HERE.parent / "demos"))
 import hertz as cb  # noqa: E402
 import _common as common  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
-from dolfinx_sfvem.solver import LoadStepper, NewtonSolver  # noqa: E402
+from dolfinx_sfvem.snes import SNESNewton  # noqa: E402
+
+
+def restored(problem: sf.ContactProblem, src: pathlib.Path) -> tuple[SNESNewton, np.ndarray, np.ndarray, float]:
+    """The Newton solver of ``problem`` at the state of the checkpoint in ``src``: (solver, values
+    of the owned constrained unknowns at load factor 1, constrained mask, the checkpoint's load)."""
+    constraints = problem.constraints()
+    problem.disc.set_constraints(constraints.dofs)
+    newton = SNESNewton(problem.equilibrium(), None, problem.petsc_options_prefix)
+    data = np.load(src / "checkpoint.npz")
+    problem.disc.set_state(data["keys"], data["values"], problem.x)
+    problem.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    return newton, constraints.final, problem.disc.constraints.mask, float(data["control_load"])
 
 
 def free_block(A: PETSc.Mat, free: np.ndarray) -> sp.csr_matrix:
@@ -67,13 +79,7 @@ def main(argv=None) -> None:
     problem = cb.build(args)
     disc, comm = problem.disc, problem.comm
     assert comm.size == 1, "serial only"
-    dofs, final, dofs_of = problem._constraints()
-    disc.set_constraints(dofs)
-    constrained = disc.constraints.mask
-    newton = NewtonSolver(disc, None, problem.f_ext)
-    stepper = LoadStepper(args.steps)
-    problem._restore_checkpoint(args.src, stepper, args.steps)
-    load0 = stepper.load
+    newton, final, constrained, load0 = restored(problem, args.src)
     n = disc.n_owned_dofs
     free = np.flatnonzero(~constrained[:n])
     cons = np.flatnonzero(constrained[:n])
@@ -85,11 +91,11 @@ def main(argv=None) -> None:
 
     def report(label: str, load: float) -> None:
         x = problem.x
-        newton.g[:] = load * final
-        newton.load = load
+        newton.g = load * final
+        newton.equilibrium.set_load(load)
         newton._residual(newton.snes, x, newton.b)
         newton.disc.jacobian(x, newton.A)
-        stiff = newton._free_row_norm(newton.A)
+        stiff = newton.free_row_norm(newton.A)
         newton._stiffness = stiff
         atol = newton.absolute_tolerance(x)
         b = newton.b.getArray().copy()
@@ -192,8 +198,8 @@ def energy_newton(newton, problem, constrained, g, load, max_it=60, verbose=True
     accept t = 1 if the directional derivative R(x + dx) . dx <= 0.5 |R(x) . dx| and J > 0,
     else find t in (0, 1) with |R(x + t dx) . dx| <= 0.5 |R(x) . dx| by safeguarded secant/bisection
     (a domain error counts as positive slope)."""
-    newton.g[:] = g
-    newton.load = load
+    newton.g = np.asarray(g)
+    newton.equilibrium.set_load(load)
     x, A, b = problem.x, newton.A, newton.b
     ksp = newton.snes.getKSP()
     dx = b.duplicate()
@@ -250,12 +256,7 @@ def main_energy(argv=None):
     p.add_argument("--target", type=float, required=True)
     args = common.parse_args(p, argv)
     problem = cb.build(args)
-    dofs, final, _ = problem._constraints()
-    problem.disc.set_constraints(dofs)
-    constrained = problem.disc.constraints.mask
-    newton = NewtonSolver(problem.disc, None, problem.f_ext)
-    stepper = LoadStepper(args.steps)
-    problem._restore_checkpoint(args.src, stepper, args.steps)
+    newton, final, constrained, _ = restored(problem, args.src)
     hist = energy_newton(newton, problem, constrained, args.target * final, args.target)
     print("residuals", " ".join(f"{r:.2e}" for r in hist))
 

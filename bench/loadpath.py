@@ -74,7 +74,7 @@ def run_case(out: pathlib.Path, example: str, method: str, line_search: str,
     raw.unlink(missing_ok=True)
     cmd = [PYTHON, str(HERE / "loadpath_case.py"), "--json", str(raw), "--", demo, "--method", method, *options,
            "--out", str(out / "runs" / name), "--quiet",
-           *(() if line_search == DEFAULT_LINE_SEARCH else ("-snes_linesearch_type", line_search))]
+           *(() if line_search == DEFAULT_LINE_SEARCH else ("-tmc_snes_linesearch_type", line_search))]
     print(f"[loadpath] {name}: {' '.join(options)}", flush=True)
     start = time.perf_counter()
     with open(log, "w") as f:

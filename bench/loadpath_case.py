@@ -4,7 +4,7 @@ Usage::
 
     python3 bench/loadpath_case.py --json out.json -- DEMO [demo options and PETSc options]
 
-e.g. ``... -- multi_object --method vem --h 0.04 --steps 30 -snes_linesearch_type bt``.
+e.g. ``... -- multi_object --method vem --h 0.04 --steps 30 -tmc_snes_linesearch_type bt``.
 The demo's own ``build`` makes the problem (``demos/<DEMO>.py``); the load path is solved
 with ``problem.solve`` writing its usual outputs, while the functions doing each part of a
 Newton iteration are wrapped and timed (``instrument.StageTimer``, inclusive times):
@@ -49,7 +49,7 @@ import dolfinx_sfvem as sf  # noqa: E402
 import dolfinx_sfvem.fem  # noqa: E402
 import dolfinx_sfvem.problem  # noqa: E402
 import dolfinx_sfvem.run_output  # noqa: E402
-import dolfinx_sfvem.solver  # noqa: E402
+import dolfinx_sfvem.snes  # noqa: E402
 import dolfinx_sfvem.vem  # noqa: E402
 
 import _common as common  # noqa: E402
@@ -63,10 +63,10 @@ def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     """Wrap the functions doing the parts of a load step (module docstring)."""
     timer.patch(type(disc), "residual", "residual")
     timer.patch(type(disc), "assemble_tangent", "tangent")
-    timer.patch(dolfinx_sfvem.solver.NewtonSolver, "_residual", "residual_snes")
+    timer.patch(dolfinx_sfvem.snes.SNESNewton, "_residual", "residual_snes")
     timer.patch(dolfinx_sfvem.vem, "folded_elements", "injectivity")
     timer.patch(dolfinx_sfvem.fem, "folded_elements", "injectivity")
-    timer.patch(sf.ContactProblem, "_contact", "gap")
+    timer.patch(sf.ContactProblem, "contact_state", "gap")
     timer.patch(sf.ContactProblem, "reactions", "reactions")
     timer.patch(dolfinx_sfvem.run_output.RunWriter, "step", "output")
     timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")

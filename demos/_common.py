@@ -12,8 +12,9 @@ regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the s
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
 (SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
 ``--adapt-max-unknowns`` as limits; docs/refinement-local.md). Every other argument starting with a
-single ``-`` is a PETSc option (``-snes_monitor``, ``-ksp_type gmres``,
-``-pc_factor_mat_solver_type superlu_dist``, ...) and goes to PETSc's options database.
+single ``-`` is a PETSc option of the library's solvers, with their prefix ``tmc_``
+(``-tmc_snes_monitor``, ``-tmc_ksp_type gmres``, ``-tmc_pc_factor_mat_solver_type superlu_dist``, ...);
+it goes to the solve's ``petsc_options``, never to PETSc's global options database.
 
 Exit codes
 ----------
@@ -34,6 +35,7 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem.snes import DEFAULT_PREFIX, options_from_tokens
 
 METHODS = ("vem", "fem")
 REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
@@ -90,7 +92,8 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     """
     p = _Parser(prog=f"{name}.py", description=description, allow_abbrev=False,
                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                epilog="Arguments starting with a single '-' (e.g. -snes_monitor -ksp_type gmres) are PETSc options.")
+                epilog=f"Arguments starting with a single '-' are PETSc options of the library's solvers, with their "
+                       f"prefix {DEFAULT_PREFIX!r} (e.g. -{DEFAULT_PREFIX}snes_monitor -{DEFAULT_PREFIX}ksp_type gmres).")
     p.add_argument("--method", choices=METHODS, default=METHODS[0], help="discretization (default %(default)s)")
     p.add_argument("--steps", type=positive_int, default=steps, help="number of load steps (default %(default)s)")
     p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out") / name,
@@ -151,7 +154,8 @@ def add_min_increment(p: argparse.ArgumentParser) -> None:
 
 
 def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
-    """Parse the command line; PETSc options go to PETSc's database and to ``args.petsc_options``.
+    """Parse the command line; PETSc options (prefix ``tmc_``) stay as tokens in
+    ``args.petsc_options`` (recorded in summary.json) and go to the solve (:func:`run`).
 
     Unknown ``--options``, stray positional arguments and ``--fem-NAME`` options without
     ``--method fem`` are errors (exit code 2).
@@ -168,7 +172,10 @@ def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = N
                 p.error(f"--{name.replace('_', '-')} needs --method fem")
     if args.adapt is not None and (args.method != "vem" or args.resume is not None):
         p.error("--adapt needs --method vem and cannot be combined with --resume")
-    sf.set_petsc_options(rest)
+    try:
+        options_from_tokens(rest, DEFAULT_PREFIX)
+    except ValueError as err:
+        p.error(str(err))
     args.petsc_options = rest
     if args.resume is not None:
         args.out = args.resume
@@ -264,13 +271,19 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
     problem.parameters.update({k: v for k, v in vars(args).items()
                                if k not in ("out", "quiet", "resume", "pressure_at", *adapt_options)})
     result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None,
-                           pressure_at=args.pressure_at, adapt=adaptivity(args), **solve_options)
+                           pressure_at=args.pressure_at, adapt=adaptivity(args),
+                           petsc_options=petsc_options(args), **solve_options)
     if problem.comm.rank == 0:
         files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
         print(f"outputs in {args.out}/: {', '.join(files)}")
         print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'} | "
               f"wall time: {result.wall_time_s:.1f} s | dofs: {result.summary['dofs']}", flush=True)
     return 0 if result.converged else 1
+
+
+def petsc_options(args: argparse.Namespace) -> dict[str, str]:
+    """The PETSc options of the command line, keyed without the prefix."""
+    return options_from_tokens(args.petsc_options, DEFAULT_PREFIX)
 
 
 def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:

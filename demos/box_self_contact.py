@@ -81,7 +81,7 @@ Examples::
     mpirun -n 2 python3 demos/box_self_contact.py --fig4 --out out/box-study
 
 Further options: ``python3 demos/box_self_contact.py --help``; PETSc options are passed through,
-e.g. ``-snes_monitor -snes_linesearch_type bt``.
+e.g. ``-tmc_snes_monitor -tmc_snes_linesearch_type bt``.
 """
 from __future__ import annotations
 

@@ -54,7 +54,7 @@ u_y = -1 with a stronger regularization, gamma = 1e-5, alpha_r = 20 (Fig. 8)::
     mpirun -n 2 python3 demos/cbox.py --uy -1 --alpha-r 20 --steps 100 --out out/cbox-uy1
 
 Further options: ``python3 demos/cbox.py --help``; PETSc options are passed through, e.g.
-``-snes_monitor -snes_linesearch_type bt``.
+``-tmc_snes_monitor -tmc_snes_linesearch_type bt``.
 """
 from __future__ import annotations
 

@@ -40,7 +40,7 @@ Block: K = 50, mu = 10; discs: K = 50000, mu = 10000 (paper Eq. 2). Medium (Eq. 
 mu = 10 (the block's), gamma = 1e-4, alpha_r = 10, regularization ``rotation``. 30 equal load
 steps by default (the paper gives none); failed steps are cut back automatically (down to
 ``--min-increment``).
-Newton stops at |R| <= 1e-8 (give ``-snes_atol`` to change it): tighter than the library's
+Newton stops at |R| <= 1e-8 (give ``-tmc_snes_atol`` to change it): tighter than the library's
 default, which follows the round-off level of the residual and, with the stiff discs, lies
 at a few 1e-6 (the residual stagnates at 2e-10 .. 5e-10).
 
@@ -62,7 +62,7 @@ Paper runs
     mpirun -n 2 python3 demos/multi_object.py --bc 2 --out out/multi-bc2
 
 Further options: ``python3 demos/multi_object.py --help``; PETSc options are passed through,
-e.g. ``-snes_monitor -snes_linesearch_type bt``.
+e.g. ``-tmc_snes_monitor -tmc_snes_linesearch_type bt``.
 """
 from __future__ import annotations
 
@@ -74,7 +74,6 @@ import typing
 
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import paper
@@ -208,10 +207,10 @@ def plot_zoom(path: pathlib.Path, mesh, u, windows: typing.Sequence[tuple[float,
 def main(argv: typing.Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build and solve; returns the exit code (0 or 1)."""
     args = common.parse_args(make_parser(), argv)
-    if not PETSc.Options().hasName("snes_atol"):          # a command-line -snes_atol wins
-        sf.set_petsc_options({"snes_atol": SNES_ATOL})
     problem, observers = build(args)
-    problem.parameters["snes_atol"] = PETSc.Options().getString("snes_atol")
+    atol = common.petsc_options(args).get("snes_atol", SNES_ATOL)    # a command-line -tmc_snes_atol wins
+    problem.parameters["snes_atol"] = atol
+    problem.petsc_options["snes_atol"] = atol
     code = common.run(problem, args, observers, min_increment=args.min_increment)
     u = problem.point_displacements()                     # collective; the last converged state
     if MPI.COMM_WORLD.rank == 0:

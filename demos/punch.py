@@ -57,7 +57,7 @@ about 3 s per Newton iteration. Rigid punch with ``--h 0.1 --steps 65``: full lo
 cut-back, 240 Newton iterations, 2.5 min.
 
 Further options: ``python3 demos/punch.py --help``; PETSc options are passed through, e.g.
-``-snes_monitor -snes_linesearch_type bt``.
+``-tmc_snes_monitor -tmc_snes_linesearch_type bt``.
 """
 from __future__ import annotations
 

@@ -12,7 +12,9 @@ Hyperelastic, ThirdMedium, UserEnergy
 Adaptivity, Compression, NearContact
     Adaptive refinement of the medium during a load path (``solve(..., adapt=...)``).
 ContactProblem
-    Mesh + energies + boundary conditions + load path, solved with PETSc SNES.
+    Mesh + energies + boundary conditions + loads, and its state; ``solve`` runs a load path.
+LoadStepping, ArcLength
+    The controls of a load path: prescribed load factor (default), arc-length.
 Discretization
     The contract both discretizations fulfil (residual, tangent, constraints, state, output).
 VEMSpace, SFVEMDiscretization
@@ -27,13 +29,15 @@ meshes
 from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from . import meshes
 from .adaptivity import Adaptivity, Compression, NearContact
+from .arclength import ArcLength
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
 from .discretization import Discretization
 from .fem import LagrangeDiscretization
 from .polygon_mesh import PolygonMesh
 from .problem import ContactProblem
-from .solver import SolveFailed, set_petsc_options
+from .snes import SolveFailed
+from .stepping import LoadStepping
 from .space import VEMSpace
 from .vem import SFVEMDiscretization
 
@@ -41,4 +45,5 @@ __version__ = "0.1.0"
 
 __all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
            "Discretization", "VEMSpace", "SFVEMDiscretization", "LagrangeDiscretization", "linear_elastic_stiffness",
-           "meshes", "SolveFailed", "set_petsc_options", "Adaptivity", "Compression", "NearContact"]
+           "meshes", "SolveFailed", "Adaptivity", "Compression", "NearContact", "LoadStepping",
+           "ArcLength"]

@@ -279,8 +279,10 @@ def _apply_C(CC, p, table, W, nphi):
 
 
 @numba.njit(cache=True, fastmath=CONTRACT)
-def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons, tables, u, values, coo_off):
-    """Write the tangent (Eq. 56) of ``polygons`` into the COO value array.
+def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygons, tables, u, values, coo_off,
+                 accumulate):
+    """Write (``accumulate`` False) or add (True) the tangent (Eq. 56) of ``polygons`` into the
+    COO value array.
 
     The element matrix of local polygon e is stored row-major, node-major, at
     ``values[coo_off[e]:coo_off[e] + (2 nd)²]``. Per component pair (i, m) and with
@@ -315,8 +317,14 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
             for a in range(nd):
                 for b in range(a if i == mm else 0, nd):
                     K = _dot_rows(table, a, W, b)
-                    block[a, i, b, mm] = K
-                    block[b, mm, a, i] = K
+                    if not accumulate:
+                        block[a, i, b, mm] = K
+                        block[b, mm, a, i] = K
+                    elif a == b and i == mm:
+                        block[a, i, a, i] += K
+                    else:
+                        block[a, i, b, mm] += K
+                        block[b, mm, a, i] += K
 
 
 @numba.njit(cache=True)

@@ -94,6 +94,26 @@ def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> n
     return values[found]
 
 
+@dataclass
+class EnergyTerm:
+    """An energy ∫ ψ dΩ over one region added to the region's own (Eq. 46), e.g. the work of a
+    cavity pressure (:class:`~dolfinx_sfvem.energy.VolumeWork`).
+
+    Attributes
+    ----------
+    tag : int
+        The region.
+    energy : Energy
+        ψ; its parameter values are ``params``, not ``energy.params``.
+    params : dict[str, float]
+        The parameter values the residual, tangent and energy use (changed between solves, e.g.
+        p = λ p_0 by the load that made the term).
+    """
+    tag: int
+    energy: Energy
+    params: dict[str, float]
+
+
 class Constraints:
     """Dirichlet constraints u_c = g_c, imposed by symmetric elimination with lifting.
 
@@ -136,6 +156,18 @@ class Constraints:
         with x.localForm() as xl:
             b.getArray()[self.owned] = xl.array_r[self.owned] - g
 
+    def lift(self, A: PETSc.Mat, b: PETSc.Vec) -> None:
+        """b_f -= K_fc b_c with the K_fc of A (not changed): the lifting :meth:`eliminate` does,
+        for one more right-hand side of the same tangent (collective)."""
+        v = b.duplicate()
+        v.set(0.0)
+        v.getArray()[self.owned] = b.getArray(readonly=True)[self.owned]
+        w = b.duplicate()
+        A.mult(v, w)
+        b.getArray()[self.owned_free] -= w.getArray(readonly=True)[self.owned_free]
+        v.destroy()
+        w.destroy()
+
     def eliminate(self, A: PETSc.Mat, b: PETSc.Vec | None = None) -> None:
         """Constrained rows and columns of the assembled tangent A become identity rows and
         columns (symmetric elimination), and the right-hand side ``b`` gets the lifting.
@@ -173,12 +205,24 @@ class Discretization(abc.ABC):
         Reference coordinates of the local nodes.
     node_key : (n_local_nodes,) int64
         Partition-independent key of every local node (module docstring).
+    node_point : (n_local_nodes,) int64
+        The :attr:`output_mesh` point of every vertex node, -1 for the others.
+    global_nodes : (n_local_nodes,) int64
+        Global number of every local node (its unknowns are 2 n + component).
+    element_loops : tuple of (n_el + 1,), (offsets[-1],), (n_el,) int64 arrays
+        ``(offsets, nodes, element)``: the boundary of every element this rank owns, element
+        e's local nodes ``v_0, m_0, v_1, m_1, ...`` (vertices and edge midpoints,
+        counter-clockwise) at ``nodes[offsets[e]:offsets[e + 1]]`` and its polygon (FEM: cell)
+        in :attr:`output_mesh`.
     """
 
     method: str
     comm: MPI.Comm
     x_nodes: np.ndarray
     node_key: np.ndarray
+    node_point: np.ndarray
+    global_nodes: np.ndarray
+    element_loops: tuple[np.ndarray, np.ndarray, np.ndarray]
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -239,6 +283,19 @@ class Discretization(abc.ABC):
     @abc.abstractmethod
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
         """External force vector of a body force ``f(x)`` (2, n) -> (2, n) per unit reference area."""
+
+    # ------------------------------------------------------------------ energy terms
+    @abc.abstractmethod
+    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
+        """Add ∫ ψ dΩ over region ``tag`` to the energy: :meth:`residual`, :meth:`assemble_tangent`
+        and :attr:`AssemblyInfo.energy` include it with the term's current ``params`` (initially
+        ``energy.params``; collective)."""
+
+    @abc.abstractmethod
+    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
+                   params: typing.Mapping[str, float] | None = None) -> float:
+        """b = ∂/∂u ∫ ψ dΩ of the term alone at x with ``params`` (default: the term's), ghost
+        contributions accumulated; returns ∫ ψ dΩ (collective)."""
 
     # ------------------------------------------------------------------ constraints
     def set_constraints(self, dofs: np.ndarray) -> None:

@@ -309,3 +309,32 @@ class UserEnergy(Energy):
 
     def psi(self, F: Expr, G: Expr, p: Mapping[str, Expr]) -> Expr:
         return self.psi_fn(F, G, **p)
+
+
+class VolumeWork(Energy):
+    """``Psi = -p (J - 1)``: the work of a pressure p on the change of area (plane strain: of
+    volume per unit thickness), integrated over a region filled with third medium it is the
+    pneumatic load of a closed cavity (Faltus et al. 2024): the exact follower load of the
+    enclosed area, with a symmetric tangent. Used by
+    :class:`~dolfinx_sfvem.loads.CavityPressure` with p set to λ p_0 at every load factor λ.
+
+    Parameters
+    ----------
+    p : float
+        Pressure (stress units; p > 0 inflates).
+    uses_gradient : bool
+        Declared as the region's energy does (Psi never depends on G; the SFVEM assembles a term
+        with the basis tables of its region, which hold the second derivatives when the
+        region's energy uses them).
+    """
+
+    def __init__(self, p: float, uses_gradient: bool = False):
+        self.uses_gradient = bool(uses_gradient)
+        super().__init__({"p": p}, {"p": None})
+
+    @property
+    def key(self) -> Hashable:
+        return (VolumeWork, self.uses_gradient)
+
+    def psi(self, F: Expr, G: Expr, p: Mapping[str, Expr]) -> Expr:
+        return -p["p"] * (J(F) - 1)

@@ -45,7 +45,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 
 from . import _compat
-from .discretization import AssemblyInfo, Discretization, Marker, check_materials
+from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .polygon_mesh import PolygonMesh
 from .injectivity import folded_elements, gather_count
@@ -180,6 +180,9 @@ class LagrangeDiscretization(Discretization):
         self.V = _compat.vector_function_space(mesh, 2)
         self.u = dolfinx.fem.Function(self.V, name="u")
         self._number_nodes(point_of_node)
+        self._cell_tags = cell_tags
+        #: energy terms (:meth:`add_energy_term`), each with the constants of its parameters
+        self._terms: list[tuple[EnergyTerm, dict[str, dolfinx.fem.Constant]]] = []
         self._build_forms(cell_tags)
 
     # ------------------------------------------------------------------ set-up
@@ -204,6 +207,7 @@ class LagrangeDiscretization(Discretization):
         if dofs.shape[1] > n_vertices + len(_EDGE_VERTICES[n_vertices]):     # Q2 cell centre
             self.node_key[dofs[:, -1]] = n + n * n + _compat.original_cell_index(self.mesh)
         self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :2].copy()
+        self.global_nodes = np.asarray(im.local_to_global(np.arange(n_nodes, dtype=np.int32)), dtype=np.int64)
 
     def _build_forms(self, cell_tags) -> None:
         """Π, its residual and tangent as compiled forms; det F at the quadrature points."""
@@ -216,6 +220,7 @@ class LagrangeDiscretization(Discretization):
                                  for name, value in energy.params.items()}
                            for tag, energy in self.materials.items()}
         Pi = sum(energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items())
+        Pi = Pi + sum(term.energy.psi(F, G, constants) * self.dx(term.tag) for term, constants in self._terms)
         medium = [energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items()
                   if energy.is_medium]
         self._medium_ufl = ufl.derivative(sum(medium), u, v) if medium else None
@@ -239,7 +244,9 @@ class LagrangeDiscretization(Discretization):
         self._solid = np.isin(self.cell_tag[self._owned_cells],
                               [tag for tag, energy in self.materials.items() if not energy.is_medium])
         self._cell_input_index = _compat.original_cell_index(mesh)
+        self.element_loops = (self._loop_offsets, self._loop, self._cell_input_index[self._owned_cells].astype(np.int64))
         self._error_terms = None
+        self._term_forms: dict[int, tuple] = {}       # the terms' own forms (:meth:`term_force`)
 
     def _jump_energy(self, eta: float) -> ufl.Form:
         """C0 interior-penalty energy on the interior facets e of each gradient region:
@@ -279,12 +286,48 @@ class LagrangeDiscretization(Discretization):
         return sum(energy_terms)
 
     def _set_state(self, x: PETSc.Vec) -> None:
-        """u <- x (ghosts included) and the region constants <- the energies' parameters."""
+        """u <- x (ghosts included), the region constants <- the energies' parameters and the
+        energy terms' constants <- the terms' parameters."""
         with x.localForm() as xl:
             self.u.x.array[:] = xl.array_r
         for tag, energy in self.materials.items():
             for name, value in energy.validate(energy.params).items():
                 self._constants[tag][name].value = value
+        for term, constants in self._terms:
+            for name, value in term.energy.validate(term.params).items():
+                constants[name].value = value
+
+    # ------------------------------------------------------------------ energy terms
+    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
+        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`): the forms are
+        compiled again with the term."""
+        if tag not in self.materials:
+            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
+        term = EnergyTerm(tag, energy, dict(energy.params))
+        constants = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value)) for name, value in term.params.items()}
+        self._terms.append((term, constants))
+        self._build_forms(self._cell_tags)
+        return term
+
+    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
+                   params: typing.Mapping[str, float] | None = None) -> float:
+        """b = ∂/∂u ∫ ψ dΩ of the term alone with ``params``; returns ∫ ψ dΩ."""
+        index = next(k for k, (t, _) in enumerate(self._terms) if t is term)
+        if index not in self._term_forms:
+            unit = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0)) for name in term.params}
+            F = ufl.variable(ufl.Identity(2) + ufl.grad(self.u))
+            energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self.dx(term.tag)
+            self._term_forms[index] = (unit, dolfinx.fem.form(energy),
+                                       dolfinx.fem.form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
+        unit, energy_form, force_form = self._term_forms[index]
+        for name, value in term.energy.validate(params if params is not None else term.params).items():
+            unit[name].value = value
+        self._set_state(x)
+        with b.localForm() as bl:
+            bl.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, force_form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return float(self.comm.allreduce(dolfinx.fem.assemble_scalar(energy_form), op=MPI.SUM))
 
     # ------------------------------------------------------------------ construction from a polygon mesh
     @classmethod

@@ -57,16 +57,19 @@ def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mappin
     and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), negative
     pivots of the tangent (``negative_pivots``, empty without an LDL^T factorization), reactions,
     per pair of bodies b-c in contact the medium's force on b, its largest pressure and the contact
-    zone's length (``contact_b-c_Fx``, ``_Fy``, ``_p_max``, ``_zone``), extras, the unknowns of the
-    step's mesh and the polygons an adaptive refinement split after it (``dofs``, ``refined_polygons``)."""
+    zone's length (``contact_b-c_Fx``, ``_Fy``, ``_p_max``, ``_zone``), every load's magnitude and
+    work-conjugate displacement (``<load>_magnitude``, ``<load>_displacement``), extras, the
+    unknowns of the step's mesh and the polygons an adaptive refinement split after it (``dofs``,
+    ``refined_polygons``)."""
     rows = [s for s in steps if s["converged"]]
     names = sorted({n for s in rows for n in s.get("reaction", {})})
+    loads = sorted({n for s in rows for n in s.get("loads", {})})
     extras = sorted({k for s in rows for k in s.get("extra", {})})
     pairs = sorted({(c["body"], c["partner_body"]) for s in rows for c in s.get("contact", [])})
     header = ["step", "load", "newton_iterations", "gap", "gap_x", "gap_y", "negative_pivots"] + \
         [f"{n}_R{c}" for n in names for c in "xy"] + \
-        [f"contact_{b}-{c}_{q}" for b, c in pairs for q in ("Fx", "Fy", "p_max", "zone")] + extras + \
-        ["dofs", "refined_polygons"]
+        [f"contact_{b}-{c}_{q}" for b, c in pairs for q in ("Fx", "Fy", "p_max", "zone")] + \
+        [f"{n}_{q}" for n in loads for q in ("magnitude", "displacement")] + extras + ["dofs", "refined_polygons"]
     lines = []
     for s in rows:
         gap = s.get("gap") or {}
@@ -77,6 +80,7 @@ def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mappin
         r += [value for pair in pairs for value in
               ([*contact[pair]["force"], contact[pair]["max_pressure"], contact[pair]["zone_length"]]
                if pair in contact else [None] * 4)]
+        r += [s.get("loads", {}).get(n, {}).get(q) for n in loads for q in ("magnitude", "displacement")]
         r += [s["extra"].get(k, np.nan) for k in extras]
         r += [s.get("dofs"), s.get("refined_polygons", 0)]
         lines.append(r)

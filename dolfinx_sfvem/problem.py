@@ -13,13 +13,9 @@ Example
 """
 from __future__ import annotations
 
-import dataclasses
-import functools
-import itertools
 import pathlib
-import time
 import typing
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -30,18 +26,18 @@ from . import post
 from .adaptivity import Adaptivity
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
-from .interrupt import StopRequest
+from .equilibrium import Equilibrium
+from .load_path import LoadPath, Observer, Result
+from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
 from .refine import Refinement, refine_mesh, transfer_state
-from .run_output import STOPPED_BY_SIGNAL, RunWriter, progress_line, read_checkpoint
-from .solver import Attempt, LoadStepper, NewtonResult, NewtonSolver, SolveFailed, StepRecord
+from .snes import DEFAULT_PREFIX
+from .stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
-#: an observer returns one number, or several named ones
-Observer = typing.Callable[["ContactProblem"], typing.Union[float, typing.Mapping[str, float]]]
-#: steps of the residual relaxation of :meth:`ContactProblem._rebalance` (cut back down to a quarter of one)
-RELAX_STEPS = 4
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
+#: where a load acts: a marker function of the coordinates, or region tags / names
+Where = typing.Union[Marker, int, str, typing.Iterable[typing.Union[int, str]]]
 
 
 @dataclass
@@ -58,47 +54,21 @@ class BoundaryCondition:
     tags: tuple[int, ...] | None = None
 
 
-@dataclass
-class Result:
-    """Outcome of :meth:`ContactProblem.solve`.
+class BoundaryValues(typing.NamedTuple):
+    """The prescribed displacements of a problem on its current discretization.
 
     Attributes
     ----------
-    converged : bool
-        The load factor ``until`` of :meth:`ContactProblem.solve` (default 1, the full load) was
-        reached (and no solids overlap).
-    load : float
-        Largest load factor reached.
-    steps : list of dict
-        The converged steps, in order (``summary.json``'s records: ``load``, ``reaction``
-        ``{name: [R_x, R_y]}``, ``gap``, ``extra`` (observers), ...).
-    attempts : list of dict
-        Every attempted step, failed ones included (``converged`` False, with ``failure``).
-    wall_time_s : float
-    summary : dict
-        The content of summary.json.
-    message : str
-        Why the run stopped ("" if it converged).
+    dofs : (k,) int64
+        Constrained unknowns (local blocked numbering, owned and ghost, sorted).
+    final : (k_owned,)
+        Their values at load factor 1, for the owned ones (in their order).
+    dofs_of : dict name -> (m,) int64
+        The unknowns of every boundary condition.
     """
-    converged: bool
-    load: float
-    steps: list[dict]
-    attempts: list[dict]
-    wall_time_s: float
-    summary: dict
-    message: str = ""
-
-
-def _observe(problem: "ContactProblem", observers: typing.Mapping[str, Observer]) -> dict[str, float]:
-    """The observers' values: ``name`` for a number, ``name.key`` for each entry of a mapping."""
-    values: dict[str, float] = {}
-    for name, f in observers.items():
-        value = f(problem)
-        if isinstance(value, typing.Mapping):
-            values.update({f"{name}.{key}": float(v) for key, v in value.items()})
-        else:
-            values[name] = float(value)
-    return values
+    dofs: np.ndarray
+    final: np.ndarray
+    dofs_of: dict[str, np.ndarray]
 
 
 def _component(c: int | str, name: str) -> int:
@@ -143,29 +113,57 @@ class ContactProblem:
         A converged state in which a boundary node of a solid lies deeper inside a solid than
         this fraction of the local boundary edge length is rejected like a failed step
         (:mod:`~dolfinx_sfvem.contact`; the run stops when cutting the increment does not help).
+    petsc_options
+        PETSc options of this problem's solvers, keys without prefix (e.g. ``{"snes_monitor":
+        None, "ksp_type": "gmres"}``); they win over the command line, which wins over the
+        defaults (:mod:`~dolfinx_sfvem.snes`). Never put into PETSc's global database beyond
+        the moment a solver reads them.
+    petsc_options_prefix
+        Options prefix of this problem's solvers: command-line options reach them as
+        ``-<prefix>snes_monitor`` (default ``tmc_``), unprefixed ones never do.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
         None: matched to the SFVEM unknowns of ``mesh``, see
         :func:`~dolfinx_sfvem.remesh.matched_triangulation`).
+
+    Attributes
+    ----------
+    mesh : PolygonMesh
+    disc : Discretization
+        The discretization of the current mesh.
+    x : PETSc.Vec
+        The state: nodal displacements (layout of :mod:`~dolfinx_sfvem.discretization`).
+    load : float
+        Load factor λ of the state (0 in the reference state; set by :meth:`solve`).
+    bcs : list of BoundaryCondition
+    loads : list of Load
+    solved : bool
+        Whether a load path has been run from the reference state (:meth:`reset` clears it).
+    parameters : dict
+        Anything to be kept in summary.json's "parameters" (the demos put their options here).
     """
 
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
-                 comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE, **options):
+                 comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE,
+                 petsc_options: typing.Mapping[str, typing.Any] | None = None,
+                 petsc_options_prefix: str = DEFAULT_PREFIX, **options):
         if method not in ("vem", "fem"):
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
+        if not (isinstance(petsc_options_prefix, str) and petsc_options_prefix and not petsc_options_prefix.startswith("-")):
+            raise ValueError(f"petsc_options_prefix must be a non-empty string without a leading '-', "
+                             f"got {petsc_options_prefix!r}")
         self.method = method
         self.comm = comm
         self.verbose = options.get("verbose", True)
+        self.petsc_options = {k.lstrip("-"): v for k, v in (petsc_options or {}).items()}
+        self.petsc_options_prefix = petsc_options_prefix
         self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
         self.materials = _materials_by_tag(mesh, materials)
-        self._build(mesh)
         self.bcs: list[BoundaryCondition] = []
-        self.f_ext = None
-        self._earlier_wall_time = 0.0      # of the stopped run a resumed solve continues
-        self._attempt_contact: tuple[Gap, ContactPressure] | None = None   # of the last converged attempt
-        self._solved = False
-        #: load factor of the current state (0 in the reference state; set by :meth:`solve`)
+        self.loads: list[Load] = []
+        self._build(mesh)
+        self.solved = False
         self.load = 0.0
         self.parameters: dict[str, typing.Any] = {}
 
@@ -185,11 +183,12 @@ class ContactProblem:
                                       self.disc.midpoint_keys, self._options["overlap_tolerance"])
         self.x = self.disc.create_vector()
         self.x.set(0.0)
+        self._bound: list[tuple[Load, BoundLoad]] = []     # the loads bound to this discretization
 
     def reset(self) -> None:
         """Back to the reference state (u = 0, load factor 0), so that :meth:`solve` may run again."""
         self.x.set(0.0)
-        self._solved = False
+        self.solved = False
         self.load = 0.0
 
     # ------------------------------------------------------------------ boundary conditions
@@ -215,14 +214,20 @@ class ContactProblem:
     def _add(self, bc: BoundaryCondition) -> BoundaryCondition:
         if bc.marker is None and bc.tags is None:
             raise ValueError(f"boundary condition {bc.name!r}: give a marker function and/or region tags")
-        if any(b.name == bc.name for b in self.bcs):
-            raise ValueError(f"boundary condition name {bc.name!r} used twice")
+        self._check_name(bc.name)
         self.bcs.append(bc)
         return bc
 
-    def _constraints(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """The constrained unknowns (k,) (local, sorted), the values at load factor 1 of the owned
-        ones (in their order) and the unknowns of every condition."""
+    def _check_name(self, name: str) -> None:
+        """Boundary conditions and loads have distinct names (their records are keyed by them)."""
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"a boundary condition or load needs a non-empty name, got {name!r}")
+        if any(b.name == name for b in self.bcs) or any(load.name == name for load in self.loads):
+            raise ValueError(f"boundary condition or load name {name!r} used twice")
+
+    def constraints(self) -> BoundaryValues:
+        """The prescribed displacements on the current discretization (collective; ValueError
+        for a condition that selects nothing or two conditions that disagree on a node)."""
         n_local = self.disc.n_local_dofs
         by = np.full(n_local, -1)                  # index of the condition that set each unknown
         final = np.zeros(n_local)
@@ -239,7 +244,7 @@ class ContactProblem:
             if self.comm.allreduce(dofs_of[bc.name].size, op=MPI.SUM) == 0:
                 raise ValueError(f"boundary condition {bc.name!r} selects no degree of freedom")
         owned = np.flatnonzero(by[:self.disc.n_owned_dofs] >= 0)
-        return np.flatnonzero(by >= 0), final[owned], dofs_of
+        return BoundaryValues(np.flatnonzero(by >= 0), final[owned], dofs_of)
 
     def _check_agreement(self, by: np.ndarray, final: np.ndarray, dofs: np.ndarray, values: np.ndarray,
                          k: int) -> None:
@@ -268,22 +273,114 @@ class ContactProblem:
                 dofs = all_dofs[comp::2]
                 xl.array[dofs] = self.disc.dof_values(value, dofs) if callable(value) else float(value)
 
-    def body_force(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> None:
+    # ------------------------------------------------------------------ loads
+    def body_force(self, f: typing.Callable[[np.ndarray], np.ndarray], name: str = "body_force") -> BodyForce:
         """Body force per unit reference area, ``f(x)`` (2, n) -> (2, n), scaled by the load factor."""
-        self.f_ext = self.disc.body_force_vector(f)
+        return self._add_load(BodyForce(name, f))
+
+    def traction(self, where: Where, t: typing.Sequence[float], name: str = "traction") -> Traction:
+        """Dead traction ``t`` = (t_x, t_y) per unit reference length, λ t at load factor λ, on the
+        boundary edges of ``where``: a marker function of the coordinates (2, n) -> (n,) bool
+        (the edges whose vertices and midpoint it selects) or region tags/names (the boundary
+        edges of those regions). Paper Eq. 1, the t̄ term."""
+        t = self._finite_pair(t, name, "t")
+        return self._add_load(Traction(name, self._where(where, name), t))
+
+    def pressure(self, where: Where, p: float, follower: bool = True, name: str = "pressure") -> Pressure:
+        """Pressure λ p on the boundary edges of ``where`` (as in :meth:`traction`), pushing into
+        the body for p > 0. ``follower=True``: on the deformed boundary (direction and length
+        follow the deformation, with its load stiffness in the tangent); False: a dead load on the
+        reference normal. For a pressure inside a closed cavity of the mesh, fill it with third
+        medium and use :meth:`cavity_pressure` (docs/loads.md says when to use which)."""
+        return self._add_load(Pressure(name, self._where(where, name), self._finite(p, name, "p"), bool(follower)))
+
+    def point_force(self, point: typing.Sequence[float], fx: float = 0.0, fy: float = 0.0,
+                    name: str = "force") -> PointForce:
+        """Force λ (fx, fy) at the mesh node at ``point`` (a polygon vertex or an edge midpoint of
+        the mesh; an error names the nearest node otherwise)."""
+        point = self._finite_pair(point, name, "point")
+        return self._add_load(PointForce(name, point, (self._finite(fx, name, "fx"), self._finite(fy, name, "fy"))))
+
+    def cavity_pressure(self, region: int | str, p: float, name: str = "cavity") -> CavityPressure:
+        """Pressure λ p of a gas in a closed cavity that the third-medium region ``region`` (tag
+        or name) fills: the energy term -λ p ∫ (J - 1) dΩ over the region (Faltus et al. 2024),
+        the exact follower load of the cavity's area with a symmetric tangent. The region must be
+        a third medium enclosed by other regions (docs/loads.md)."""
+        tag = self._region_tags(region, name)
+        if len(tag) != 1:
+            raise ValueError(f"cavity pressure {name!r}: give one region, got {region!r}")
+        return self._add_load(CavityPressure(name, tag[0], self._finite(p, name, "p")))
+
+    def _add_load(self, load: Load) -> Load:
+        """Bound at once, so that bad input is named here (collective)."""
+        self._check_name(load.name)
+        self._bound.append((load, load.bind(self.disc, self.materials)))
+        self.loads.append(load)
+        return load
+
+    @staticmethod
+    def _finite(value: typing.Any, name: str, what: str) -> float:
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"load {name!r}: {what} must be a number, got {value!r}") from None
+        if not np.isfinite(value):
+            raise ValueError(f"load {name!r}: {what} must be finite, got {value}")
+        return value
+
+    def _finite_pair(self, values: typing.Any, name: str, what: str) -> tuple[float, float]:
+        values = tuple(values) if isinstance(values, (list, tuple, np.ndarray)) else (values,)
+        if len(values) != 2:
+            raise ValueError(f"load {name!r}: {what} must be a pair (x, y), got {values!r}")
+        return tuple(self._finite(v, name, what) for v in values)
+
+    def _region_tags(self, regions: int | str | typing.Iterable[int | str], name: str) -> tuple[int, ...]:
+        """Region tags from tags or names of :attr:`mesh`'s regions (ValueError naming the unknown)."""
+        items = [regions] if isinstance(regions, (int, str, np.integer)) else list(regions)
+        tags = []
+        for item in items:
+            if isinstance(item, str):
+                if item not in self.mesh.region_names:
+                    raise ValueError(f"load {name!r}: {item!r} is not a region name of the mesh "
+                                     f"(its names: {sorted(self.mesh.region_names)})")
+                item = self.mesh.region_names[item]
+            if int(item) not in set(np.unique(self.mesh.tags).tolist()):
+                raise ValueError(f"load {name!r}: the mesh has no region {item!r}")
+            tags.append(int(item))
+        return tuple(tags)
+
+    def _where(self, where: Where, name: str) -> Marker | tuple[int, ...]:
+        return where if callable(where) else self._region_tags(where, name)
+
+    def equilibrium(self) -> Equilibrium:
+        """The balance R(u; λ) with the loads bound to the current discretization (collective;
+        :mod:`~dolfinx_sfvem.equilibrium`)."""
+        bound = dict((id(load), b) for load, b in self._bound)
+        for load in self.loads:
+            if id(load) not in bound:
+                b = load.bind(self.disc, self.materials)
+                self._bound.append((load, b))
+                bound[id(load)] = b
+        return Equilibrium(self.disc, [bound[id(load)] for load in self.loads])
 
     # ------------------------------------------------------------------ results
-    def reactions(self, dofs_of: dict[str, np.ndarray], load: float = 1.0,
-                  force: PETSc.Vec | None = None) -> dict[str, list[float]]:
-        """Reaction force [R_x, R_y] on every boundary condition: the sum over its unknowns of
-        internal minus external force at the current state and load factor (``force``, that
-        vector if the caller has it already, e.g. the Newton solver's; else assembled here)."""
+    def reactions(self, force: PETSc.Vec | None = None,
+                  dofs_of: typing.Mapping[str, np.ndarray] | None = None) -> dict[str, list[float]]:
+        """Reaction force [R_x, R_y] on every boundary condition at the current state and load
+        factor: the sum over its unknowns of internal minus external force (collective).
+
+        ``force`` and ``dofs_of`` are for the load path, which has both at hand (the Newton
+        solver's force at the converged state, :meth:`constraints`' unknowns); by default they
+        are assembled here."""
+        dofs_of = self.constraints().dofs_of if dofs_of is None else dofs_of
         b = force
         if b is None:
+            equilibrium = self.equilibrium()
+            equilibrium.set_load(self.load)
             b = self.disc.create_vector()
-            self.disc.residual(self.x, b)
-            if self.f_ext is not None:
-                b.axpy(-load, self.f_ext)
+            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            equilibrium.residual(self.x, b)
+            equilibrium.destroy()
         n_owned = self.disc.n_owned_dofs
         with b.localForm() as bl:
             r = bl.array_r
@@ -312,9 +409,9 @@ class ContactProblem:
         bodies facing each other across the medium the total contact force, the largest pressure,
         the contact zone's length and the smallest gap, at the current state (collective; the
         result on every rank; :mod:`~dolfinx_sfvem.contact`)."""
-        return self._contact()[1]
+        return self.contact_state()[1]
 
-    def _contact(self) -> tuple[Gap, ContactPressure]:
+    def contact_state(self) -> tuple[Gap, ContactPressure]:
         """:meth:`contact_gap` and :meth:`contact_pressure` from one gather (collective)."""
         f = self.disc.create_vector()
         self.disc.medium_force(self.x, f)
@@ -363,25 +460,22 @@ class ContactProblem:
         if self.method != "vem":
             raise ValueError("refine: only method='vem' can be refined with hanging nodes; for the FEM build a "
                              "finer problem instead")
-        if self.f_ext is not None:
-            raise ValueError("refine: a problem with a body force cannot be refined (the force vector belongs "
-                             "to the old mesh); refine first, then call body_force")
         refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
-        self._move_to(refinement)
+        self.move_to(refinement)
         return refinement
 
-    def _move_to(self, refinement: Refinement) -> None:
+    def move_to(self, refinement: Refinement) -> None:
         """Rebuild on ``refinement.mesh`` and carry the state over (collective)."""
-        self._rebuild(refinement.mesh, transfer_state(refinement, self._gathered_state()))
+        self.rebuild(refinement.mesh, transfer_state(refinement, self.gathered_state()))
 
-    def _gathered_state(self) -> np.ndarray:
+    def gathered_state(self) -> np.ndarray:
         """The state (n_nodes, 2) by node key, on every rank (collective)."""
         keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
         state = np.full((int(keys.max()) + 1, 2), np.nan)
         state[keys] = values
         return state
 
-    def _rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None:
+    def rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None:
         """The problem on ``mesh`` at ``state`` (n_nodes, 2) by node key (collective)."""
         self.x.destroy()
         self._build(mesh)
@@ -389,24 +483,36 @@ class ContactProblem:
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
     # ------------------------------------------------------------------ solve
-    def solve(self, steps: int, out: str | pathlib.Path | None = None, *,
+    def solve(self, steps: int | None = None, out: str | pathlib.Path | None = None, *,
+              control: Control | None = None,
               petsc_options: typing.Mapping[str, typing.Any] | None = None,
               min_increment: float | None = None,
               observers: typing.Mapping[str, Observer] | None = None,
               raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
               until: float = 1.0, adapt: Adaptivity | None = None,
               pressure_at: typing.Iterable[float] = ()) -> Result:
-        """Ramp the prescribed displacements in ``steps`` load steps with Newton's method.
+        """Follow the load path from load factor 0 (or the current one) to ``until``.
+
+        Prescribed displacements and loads are ramped together by the load factor λ. The
+        control decides how: by default λ is prescribed in ``steps`` increments with Newton's
+        method at each (:class:`~dolfinx_sfvem.stepping.LoadStepping`); with
+        ``control=ArcLength(...)`` λ follows from an arc-length constraint, through limit points
+        (:class:`~dolfinx_sfvem.arclength.ArcLength`). The driver is
+        :class:`~dolfinx_sfvem.load_path.LoadPath`.
 
         Parameters
         ----------
         steps
             Number of nominal load increments over the whole path, load factor 0 to 1 (a path
-            continued from load factor λ_0 takes about ``(until - λ_0) * steps`` of them).
+            continued from load factor λ_0 takes about ``(until - λ_0) * steps`` of them); for the
+            default control only.
         out
             Output directory (summary.json, load_path.csv, XDMF, PNG); None writes nothing.
+        control
+            How the path advances; default ``LoadStepping(steps, min_increment=min_increment)``.
         petsc_options
-            PETSc options for SNES/KSP/PC (the command line works too).
+            PETSc options for this solve, keys without prefix (over the problem's
+            ``petsc_options`` and the command line's ``-<prefix>...`` options).
         min_increment
             Smallest load-factor increment of the automatic cut-back (default (1/steps)/2¹⁰).
         observers
@@ -419,13 +525,13 @@ class ContactProblem:
         resume
             Continue the run saved in ``out`` (``checkpoint.npz`` and ``summary.json``, written
             after every converged step) from its last converged step. With the same
-            ``steps`` the result equals that of an uninterrupted run. Not with ``adapt``.
+            control the result equals that of an uninterrupted run. Not with ``adapt``.
         from_current_state
             Continue the load path from the current state and its load factor :attr:`load`
-            (e.g. after :meth:`refine`): the first step re-balances the state at that load
-            (:meth:`_rebalance`), the following ones go on to ``until``; the cut-back never goes
-            below the load already reached. A problem solved once refuses to solve again unless
-            this is True; :meth:`reset` returns to the reference state instead.
+            (e.g. after :meth:`refine`): the first step re-balances the state at that load, the
+            following ones go on to ``until``; the cut-back never goes below the load already
+            reached. A problem solved once refuses to solve again unless this is True;
+            :meth:`reset` returns to the reference state instead.
         until
             Load factor at which the path stops, in (0, 1]; ``converged`` means it was reached.
         adapt
@@ -437,7 +543,7 @@ class ContactProblem:
             boundaries (``contact_pressure_<load>.png``, at the first converged step reaching each);
             the last state's is always written (``contact_pressure.png``).
         """
-        if self._solved and not (from_current_state or resume):
+        if self.solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
                              "reference state, or solve(..., from_current_state=True) to continue the load path "
                              "from the current state")
@@ -447,241 +553,32 @@ class ContactProblem:
             raise ValueError("adapt: adaptive refinement needs method='vem' and cannot resume a stopped run")
         if from_current_state and until < self.load - 1e-12:
             raise ValueError(f"until = {until:g} lies below the load factor {self.load:g} already reached")
-        rebalance = from_current_state and self._solved and not resume
-        if adapt is not None:
-            adapt.level = None                 # levels count from the mesh this solve starts on
-        self._solved = True
-        t_start = time.perf_counter()
-        stepper = LoadStepper(steps, min_increment=min_increment, start=self.load if from_current_state else 0.0,
-                              until=until)
-        records: list[dict] = []
-        if resume:
-            if out is None:
-                raise ValueError("resume needs the output directory of the stopped run")
-            self.disc.set_constraints(self._constraints()[0])
-            records = self._restore_checkpoint(pathlib.Path(out), stepper, steps)
-        writer = RunWriter(self, out, stepper, append=resume, pressure_at=pressure_at) if out is not None else None
-        observers = dict(observers or {})
-        message = ""
-        refined, transferred = 0, False        # polygons split after the last converged step; state transferred
-        undo = None                            # mesh and state before the last adaptive refinement
-        with StopRequest() as stop:
-            try:
-                while True:
-                    constrained, final, dofs_of = self._constraints()
-                    self.disc.set_constraints(constrained)
-                    if not transferred:
-                        self._check_initial_state()      # a transferred state is checked by re-balancing
-                    newton = NewtonSolver(self.disc, petsc_options, self.f_ext)
-                    path = [self._rebalance(newton, final, petsc_options)] if rebalance else []
-                    path = itertools.chain(path, stepper.attempts(functools.partial(self._solve_to, newton, final),
-                                                                  self.x))
-                    for attempt in path:
-                        rec = self._record(attempt, sum(r["converged"] for r in records) + attempt.converged,
-                                           dofs_of, observers, newton)
-                        records.append(asdict(rec))
-                        if attempt.converged:
-                            advanced, self.load = attempt.load > self.load, attempt.load
-                            self._progress(rec)
-                            if writer is not None:
-                                writer.step(records, time.perf_counter() - t_start + self._earlier_wall_time,
-                                            self._attempt_contact[1])
-                            if adapt is not None and advanced and not stop.requested(self.comm):
-                                refined, undo = self._adapt(adapt)
-                                records[-1]["refined_polygons"] = refined
-                        elif self.verbose and self.comm.rank == 0:
-                            then = "cutting the increment" if attempt.load > self.load else "re-balancing failed"
-                            print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
-                                  f"{rec.newton_iterations} its); {then}", flush=True)
-                        if not attempt.converged and attempt.load == self.load:
-                            if undo is None:
-                                raise SolveFailed(f"re-balancing at load factor {self.load:.6g} failed "
-                                                  f"({rec.failure})")
-                            self._undo_adaptation(*undo, records)
-                            undo, adapt, refined = None, None, -1
-                        if refined or stop.requested(self.comm):
-                            break
-                    if not refined:
-                        break
-                    if writer is not None:
-                        writer.new_mesh()
-                    rebalance, transferred, refined = refined > 0, refined > 0, 0
-            except SolveFailed as err:
-                n_done = sum(r["converged"] for r in records)
-                message = f"step {n_done + 1}: {err}"
-                err.args = (message,)
-                if raise_on_failure:
-                    self._finish(writer, records, t_start, until, message)
-                    raise
-        signalled = stop.requested(self.comm)
-        if signalled:
-            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {self.load:.6g}"
-        return self._finish(writer, records, t_start, until, message)
+        if control is None:
+            if steps is None:
+                raise ValueError("give the number of load steps, or a control (e.g. control=sf.ArcLength(...))")
+            control = LoadStepping(steps, min_increment=min_increment)
+        elif steps is not None or min_increment is not None:
+            raise ValueError("steps and min_increment belong to the default load stepping; with a control "
+                             "give them to the control")
+        options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
+        return LoadPath(self, control, out, petsc_options=options, observers=observers,
+                        raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,
+                        until=until, adapt=adapt, pressure_at=pressure_at).run()
 
-    # ------------------------------------------------------------------ continuation and adaptivity
-    def _rebalance(self, newton: NewtonSolver, final: np.ndarray,
-                   petsc_options: typing.Mapping[str, typing.Any] | None) -> Attempt:
-        """Equilibrium at the load factor already reached, :attr:`load`, from the current state
-        (a transferred one after :meth:`refine`): Newton's method at that load; if it fails (a
-        state far from equilibrium can fold the soft medium), the residual r_0 of the starting
-        state is relaxed instead, R(u) = (1 - s) r_0 for s ramped from 0 to 1 with cut-back
-        (prescribed values unchanged throughout), and the last solve at s = 1 is Newton's at the
-        load (docs/refinement-local.md). Without a body force only; with one the first solve decides."""
-        t0 = time.perf_counter()
-        start = self.x.copy()
-        result = self._solve_to(newton, final, self.load)
-        if not result.converged and self.f_ext is None:
-            start.copy(self.x)
-            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            result = self._relax(newton, final, petsc_options, result.iterations)
-        if not result.converged:
-            start.copy(self.x)
-            self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        start.destroy()
-        return Attempt(self.load, result, time.perf_counter() - t0)
-
-    def _relax(self, newton: NewtonSolver, final: np.ndarray, petsc_options: typing.Mapping[str, typing.Any] | None,
-               iterations: int) -> NewtonResult:
-        """The homotopy of :meth:`_rebalance` from the current state; ``iterations`` done before
-        are added to the result's."""
-        r0 = self.disc.create_vector()
-        self.disc.residual(self.x, r0)
-        homotopy = NewtonSolver(self.disc, petsc_options, r0)
-        ramp = LoadStepper(RELAX_STEPS, min_increment=1.0 / RELAX_STEPS / 4)
-        g = self.load * final
-        try:
-            for attempt in ramp.attempts(lambda s: homotopy.solve(self.x, g, 1.0 - s), self.x):
-                iterations += attempt.result.iterations
-            result = self._solve_to(newton, final, self.load)
-        except SolveFailed as err:
-            result = dataclasses.replace(attempt.result, iterations=0, failure=f"relaxing the residual: {err}")
-        finally:
-            r0.destroy()
-        result.iterations += iterations
-        return result
-
-    def _undo_adaptation(self, mesh: PolygonMesh, state: np.ndarray, records: list[dict]) -> None:
-        """Back to ``mesh`` and ``state`` (n_nodes, 2) from before the adaptive refinement whose
-        re-balancing failed, adaptivity off for the rest of the path: the last converged step is
-        kept as it was, nothing is lost (collective)."""
-        records[-1]["failure"] += "; refinement undone, adaptivity off for the rest of the path"
-        if self.verbose and self.comm.rank == 0:
-            print(f"  re-balancing the refined mesh at load {self.load:.5g} failed: back to the mesh before "
-                  "(adaptivity off for the rest of the path)", flush=True)
-        self._rebuild(mesh, state)
-        last = next(r for r in reversed(records) if r["converged"])
-        last["refined_polygons"] = 0
-
-    def _adapt(self, adapt: Adaptivity) -> tuple[int, tuple[PolygonMesh, np.ndarray] | None]:
-        """Refine where ``adapt`` says at the current (converged) state: the number of polygons
-        split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
-        refinement = adapt.refinement(self)
-        if refinement is None:
-            return 0, None
-        before = (self.mesh, self._gathered_state())
-        self._move_to(refinement)
-        adapt.refined(refinement)
-        if self.verbose and self.comm.rank == 0:
-            print(f"  adapt at load {self.load:.5g}: {refinement.describe()}, {self.disc.num_dofs_global} unknowns",
-                  flush=True)
-        return int(refinement.selected.sum()), before
-
-    def _solve_to(self, newton: NewtonSolver, final: np.ndarray, load: float) -> NewtonResult:
-        """Newton's solve for the load factor ``load`` (constrained values ``load * final``); a
-        converged state whose solids overlap is rejected. Keeps the converged state's contact
-        quantities for :meth:`_record`."""
-        result = newton.solve(self.x, load * final, load)
-        if result.converged:
-            self._attempt_contact = self._contact()
-            gap = self._attempt_contact[0]
-            if gap.overlapping:
-                result.converged = False
-                result.failure = (f"solids overlap: {gap.describe()} (more than {self.boundary.tolerance:g} "
-                                  "times the local edge length)")
-        return result
-
-    def _record(self, attempt: Attempt, step: int, dofs_of: dict[str, np.ndarray],
-                observers: typing.Mapping[str, Observer], newton: NewtonSolver) -> StepRecord:
-        """The record of an attempt; a converged one with its gap, contact pressure, reactions
-        (from the force ``newton`` has at the converged state), largest displacement and the
-        observers' values (collective)."""
-        res = attempt.result
-        rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
-                         residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
-                         kinked_elements=res.kinked, negative_pivots=res.negative_pivots, failure=res.failure,
-                         wall_time_s=attempt.wall_time_s)
-        if attempt.converged:
-            gap, pressure = self._attempt_contact
-            rec.gap = gap.as_dict()
-            rec.contact = [pair.as_dict() for pair in pressure.pairs]
-            newton.force_at(self.x)
-            rec.reaction = self.reactions(dofs_of, attempt.load, newton.force)
-            rec.max_displacement = self.max_displacement()
-            rec.extra = _observe(self, observers)
-            rec.dofs = int(self.disc.num_dofs_global)
-        return rec
-
-    def _check_initial_state(self) -> None:
-        """Reject a starting state with J <= 0 (inverted elements), folded elements, a non-finite
-        energy or overlapping solids."""
-        b = self.disc.create_vector()
-        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        info = self.disc.residual(self.x, b)
-        b.destroy()
-        if not info.admissible:
-            raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
-                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}; {info.folded} folded "
-                             f"element(s), e.g. {info.folded_polygon}")
-        gap = self.contact_gap()
-        if gap.overlapping:
-            raise ValueError(f"the solids overlap in the initial configuration: {gap.describe()}")
-
-    def _restore_checkpoint(self, out: pathlib.Path, stepper: LoadStepper, steps: int) -> list[dict]:
-        """Load state, stepper state and converged records of the stopped run in ``out``."""
-        saved = read_checkpoint(out, steps, self.summary([], 0.0, False))
-        self.disc.set_state(saved.keys, saved.values, self.x)
-        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        stepper.restore(saved.stepper)
-        self.load = stepper.load
-        self._earlier_wall_time = saved.wall_time_s
-        records = [r for r in saved.records if r["load"] <= stepper.load + 1e-14]
-        if self.comm.rank == 0 and self.verbose:
-            print(f"resuming from load factor {stepper.load:.6g} after {len(records)} converged steps", flush=True)
-        return records
-
-    def _finish(self, writer: RunWriter | None, records: list[dict], t_start: float, until: float,
-                message: str) -> Result:
-        """Write the final outputs and return the result of a run that aimed at the load factor ``until``."""
-        wall = time.perf_counter() - t_start + self._earlier_wall_time
-        converged = self.load >= until - 1e-12 and not message
-        summary = self.summary(records, wall, converged, message)
-        if writer is not None:
-            writer.finish(summary)
-        if message and self.comm.rank == 0:
-            print(f"run stopped: {message}", flush=True)
-        return Result(converged, self.load, [r for r in records if r["converged"]], records, wall, summary, message)
-
-    def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
-        """The content of summary.json."""
+    def describe(self) -> dict:
+        """The problem's identity for summary.json: ``method``, ``dofs``, ``discretization`` (the
+        mesh facts of the discretization) and ``parameters`` (:attr:`parameters`, materials,
+        boundary conditions, loads)."""
         return {
             "method": self.method,
             "dofs": int(self.disc.num_dofs_global),
-            **self.disc.describe(),
-            "ranks": int(self.comm.size),
-            "wall_time_s": wall,
-            "converged": bool(converged),
-            "message": message,
+            "discretization": self.disc.describe(),
             "parameters": {
                 **self.parameters,
                 "materials": {str(tag): {"energy": e.name, **e.params} for tag, e in self.materials.items()},
                 "boundary_conditions": {bc.name: {"values": {c: getattr(v, "__name__", "function") if callable(v) else v
                                                              for c, v in bc.values.items()}, "tags": bc.tags}
                                         for bc in self.bcs},
+                **({"loads": {load.name: load.describe() for load in self.loads}} if self.loads else {}),
             },
-            "steps": records,
         }
-
-    def _progress(self, rec: StepRecord) -> None:
-        """The progress line of a converged step (:func:`~dolfinx_sfvem.run_output.progress_line`)."""
-        if self.verbose and self.comm.rank == 0:
-            print(progress_line(rec), flush=True)

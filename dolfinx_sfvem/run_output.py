@@ -1,6 +1,6 @@
 """The files of a run, written as it goes, and resuming a stopped run from them.
 
-A run directory holds ``summary.json`` (:meth:`~dolfinx_sfvem.ContactProblem.summary`),
+A run directory holds ``summary.json`` (:meth:`~dolfinx_sfvem.load_path.LoadPath.summary`),
 ``load_path.csv``, ``displacement.xdmf``/``.h5`` and :data:`CHECKPOINT`; all but the XDMF pair
 are rewritten atomically after every converged step, so a run killed at any moment leaves a
 consistent directory that ``solve(..., resume=True)`` continues (docs/architecture.md).
@@ -14,19 +14,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _compat, post
-from .run_summary import RUNNING, STOPPED_BY_SIGNAL
-from .solver import LoadStepper, StepRecord
+from mpi4py import MPI
+from petsc4py import PETSc
 
-if typing.TYPE_CHECKING:
-    from .contact import ContactPressure
-    from .problem import ContactProblem
+from . import _compat, post
+from .contact import ContactPressure
+from .discretization import Discretization
+from .run_summary import RUNNING, StepRecord
+from .stepping import Control
 
 #: load factors closer than this count as equal (a step's load against a requested one)
 LOAD_TOL = 1e-9
 
-#: state of the last converged step: node ``keys`` (k,), nodal ``values`` (k, 2), the nominal
-#: ``steps`` and the load stepper's ``load``, ``increment`` and ``streak``
+#: state of the last converged step: node ``keys`` (k,), nodal ``values`` (k, 2), the control's
+#: state (``control_load``, ``control_increment``, ...) and its ``previous`` state (k, 2) if it keeps one
 CHECKPOINT = "checkpoint.npz"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -68,8 +69,10 @@ class Checkpoint:
         Node keys (:meth:`Discretization.get_state`) of the whole mesh.
     values : (k, 2)
         Displacement of every node [length].
-    stepper : dict
-        The :class:`LoadStepper` state (``load``, ``increment``, ``streak``).
+    control : dict
+        The control's state (:meth:`~dolfinx_sfvem.stepping.Control.state`).
+    previous : (k, 2) or None
+        The control's previous converged state (:attr:`~dolfinx_sfvem.stepping.Control.previous`).
     records : list of dict
         The converged steps of summary.json.
     wall_time_s : float
@@ -77,20 +80,23 @@ class Checkpoint:
     """
     keys: np.ndarray
     values: np.ndarray
-    stepper: dict[str, float]
+    control: dict[str, float]
+    previous: np.ndarray | None
     records: list[dict]
     wall_time_s: float
 
 
-def read_checkpoint(out: pathlib.Path, steps: int, summary_now: typing.Mapping[str, typing.Any]) -> Checkpoint:
+#: prefix of the control's state entries in :data:`CHECKPOINT`
+CONTROL_PREFIX = "control_"
+
+
+def read_checkpoint(out: pathlib.Path, summary_now: typing.Mapping[str, typing.Any]) -> Checkpoint:
     """The checkpoint of the run in ``out``, which must have solved the problem of ``summary_now``
-    with ``steps`` nominal steps (ValueError naming what differs otherwise)."""
+    with the same control (ValueError naming what differs otherwise)."""
     path = out / CHECKPOINT
     if not path.exists():
         raise ValueError(f"cannot resume: {path} does not exist")
     data = np.load(path)
-    if int(data["steps"]) != steps:
-        raise ValueError(f"cannot resume: the stopped run used {int(data['steps'])} steps, not {steps}")
     with open(out / "summary.json") as f:
         previous = json.load(f)
     differing = differences(problem_identity(previous), problem_identity(summary_now))
@@ -99,23 +105,26 @@ def read_checkpoint(out: pathlib.Path, steps: int, summary_now: typing.Mapping[s
                          "resuming continues the same problem only, start a new run (another output "
                          "directory) to change it")
     earlier = previous.get("wall_time_s")
-    return Checkpoint(data["keys"], data["values"], {k: float(data[k]) for k in ("load", "increment", "streak")},
+    control = {k[len(CONTROL_PREFIX):]: float(data[k]) for k in data.files if k.startswith(CONTROL_PREFIX)}
+    return Checkpoint(data["keys"], data["values"], control, data["previous"] if "previous" in data.files else None,
                       [r for r in previous["steps"] if r["converged"]],
                       float(earlier) if isinstance(earlier, (int, float)) and np.isfinite(earlier) else 0.0)
 
 
 def progress_line(rec: StepRecord) -> str:
     """One line per converged step: Newton, J, gap, negative pivots of the tangent (when any),
-    time and the first prescribed condition's reaction (the full record is in summary.json and
-    load_path.csv)."""
+    time, the first prescribed condition's reaction and the first load's magnitude and
+    work-conjugate displacement (the full record is in summary.json and load_path.csv)."""
     res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
     gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
     kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
     kinked += f"  negative pivots {rec.negative_pivots}" if rec.negative_pivots else ""
     loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
     reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
+    load = next(iter(rec.loads.items()), None)
+    load = f"  {load[0]} {load[1]['magnitude']:+.4e} at {load[1]['displacement']:+.4e}" if load else ""
     return (f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "
-            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  dofs {rec.dofs}{reaction}")
+            f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  dofs {rec.dofs}{reaction}{load}")
 
 
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:
@@ -124,31 +133,52 @@ def _first_bytes(path: pathlib.Path, n: int) -> bytes:
 
 
 class RunWriter:
-    """Writes the outputs of a run as it goes (every converged step) and at its end."""
+    """Writes the outputs of a run as it goes (every converged step) and at its end.
 
-    def __init__(self, problem: ContactProblem, out: str | pathlib.Path, stepper: LoadStepper,
-                 append: bool = False, pressure_at: typing.Iterable[float] = ()):
-        self.problem = problem
-        self.stepper = stepper
+    Parameters
+    ----------
+    comm
+        The run's communicator.
+    disc, x
+        The discretization and state of the current mesh (:meth:`new_mesh` after a refinement).
+    out
+        The output directory.
+    control
+        The path's control (its state goes into the checkpoint).
+    summary
+        ``summary(records, wall, converged, message)``: the content of summary.json.
+    append
+        Continue the XDMF series of a stopped run.
+    pressure_at
+        Load factors at which the contact pressure is plotted (:meth:`step`).
+    """
+
+    def __init__(self, comm: MPI.Comm, disc: Discretization, x: PETSc.Vec, out: str | pathlib.Path,
+                 control: Control, summary: typing.Callable[..., dict], append: bool = False,
+                 pressure_at: typing.Iterable[float] = ()):
+        self.comm = comm
+        self.control = control
+        self.summary = summary
         #: load factors whose contact pressure is still to be plotted (at the first converged step
         #: that reaches each); those a resumed run has passed already are dropped
-        self.pressure_at = sorted(t for t in pressure_at if t > stepper.load + LOAD_TOL)
+        self.pressure_at = sorted(t for t in pressure_at if t > control.load + LOAD_TOL)
         self.out = pathlib.Path(out)
-        if problem.comm.rank == 0:
+        if comm.rank == 0:
             self.out.mkdir(parents=True, exist_ok=True)
-        problem.comm.barrier()
+        comm.barrier()
         self.meshes = 0                    # refinements during the run (:meth:`new_mesh`)
         self.xdmf_path = self.out / "displacement.xdmf"
-        self.new_mesh()
+        self.new_mesh(disc, x)
         self.xdmf_started = append and self._readable_xdmf()
 
-    def new_mesh(self) -> None:
-        """Output functions on the problem's current mesh; after a refinement during the run the
-        displacement series goes on in ``displacement_refined<k>.xdmf``, k = 1, 2, ... (one XDMF
-        file per mesh)."""
+    def new_mesh(self, disc: Discretization, x: PETSc.Vec) -> None:
+        """Output functions on the discretization ``disc`` with state ``x``; after a refinement
+        during the run the displacement series goes on in ``displacement_refined<k>.xdmf``,
+        k = 1, 2, ... (one XDMF file per mesh)."""
         import dolfinx.fem
+        self.disc, self.x = disc, x
         self.u_p2 = None
-        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(self.problem.disc.dolfinx_mesh, 1), name="u")
+        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(disc.dolfinx_mesh, 1), name="u")
         if self.meshes:
             self.xdmf_path = self.out / f"displacement_refined{self.meshes}.xdmf"
         self.meshes += 1
@@ -157,10 +187,9 @@ class RunWriter:
     def _readable_xdmf(self) -> bool:
         """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed
         run left behind (HDF5 superblock missing) is renamed ``*.broken`` and a new series begins."""
-        comm = self.problem.comm
         h5 = self.xdmf_path.with_suffix(".h5")
         ok = None
-        if comm.rank == 0:
+        if self.comm.rank == 0:
             ok = self.xdmf_path.exists() and h5.exists() and _first_bytes(h5, 8) == HDF5_SIGNATURE
             if not ok:
                 for path in (self.xdmf_path, h5):
@@ -168,15 +197,15 @@ class RunWriter:
                         path.replace(path.with_name(path.name + ".broken"))
                         print(f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
                               "the displacement series starts again", flush=True)
-        return comm.bcast(ok, root=0)
+        return self.comm.bcast(ok, root=0)
 
     def _write_xdmf(self, load: float) -> None:
         """Append one time step; the file is opened and closed around it, so a run killed
         between steps leaves a readable series."""
         import dolfinx.io
-        with dolfinx.io.XDMFFile(self.problem.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
+        with dolfinx.io.XDMFFile(self.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
             if not self.xdmf_started:
-                f.write_mesh(self.problem.disc.dolfinx_mesh)
+                f.write_mesh(self.disc.dolfinx_mesh)
             f.write_function(self.u_p1, load)
         self.xdmf_started = True
 
@@ -185,41 +214,47 @@ class RunWriter:
         with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and
         ``contact_pressure_<load>.png`` of ``pressure`` (its contact pressure) if the step
         reaches one of the load factors of ``pressure_at``."""
-        p = self.problem
         load = records[-1]["load"]
+        method = self.disc.method
         due = [t for t in self.pressure_at if load >= t - LOAD_TOL]
         if due:
             self.pressure_at = self.pressure_at[len(due):]
-            if p.comm.rank == 0:
+            if self.comm.rank == 0:
                 post.plot_contact_pressure(self.out / f"contact_pressure_{load:.4g}.png", pressure,
-                                           title=f"{p.method}: contact pressure at load factor {load:.4g}")
-        self.u_p2 = p.disc.output_function(p.x, self.u_p2)
+                                           title=f"{method}: contact pressure at load factor {load:.4g}")
+        self.u_p2 = self.disc.output_function(self.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
         self._write_xdmf(records[-1]["load"])
-        partial = p.summary(records, wall, False, RUNNING)
-        keys, values = p.disc.get_state(p.x)
-        pieces = p.comm.gather((keys, values), root=0)
-        if p.comm.rank == 0:
-            keys = np.concatenate([k for k, _ in pieces])
-            values = np.concatenate([v for _, v in pieces])
-            order = np.argsort(keys)
-            post.write_npz(self.out / CHECKPOINT, keys=keys[order], values=values[order],
-                           steps=round(1 / self.stepper.nominal), **self.stepper.state())
+        partial = self.summary(records, wall, False, RUNNING)
+        keys, values = self._gathered(self.x)
+        previous = {} if self.control.previous is None else {"previous": self._gathered(self.control.previous)[1]}
+        if self.comm.rank == 0:
+            control = {CONTROL_PREFIX + k: v for k, v in self.control.state().items()}
+            post.write_npz(self.out / CHECKPOINT, keys=keys, values=values, **previous, **control)
             post.write_json(self.out / "summary.json", partial)
             post.write_load_path_csv(self.out / "load_path.csv", records)
 
-    def finish(self, summary: dict) -> None:
-        """Write the final summary.json and load_path.csv and the pictures of the last state."""
-        p = self.problem
-        u = p.point_displacements()
-        pressure = p.contact_pressure()
-        if p.comm.rank == 0:
+    def _gathered(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
+        """The nodal values of ``x`` (k, 2) by sorted node key (k,) on rank 0 (collective)."""
+        pieces = self.comm.gather(self.disc.get_state(x), root=0)
+        if self.comm.rank != 0:
+            return None, None
+        keys = np.concatenate([k for k, _ in pieces])
+        order = np.argsort(keys)
+        return keys[order], np.concatenate([v for _, v in pieces])[order]
+
+    def finish(self, summary: dict, u: np.ndarray | None, pressure: ContactPressure) -> None:
+        """Write the final summary.json and load_path.csv and the pictures of the last state
+        (``u`` the displacements of the output mesh's points on rank 0, ``pressure`` the contact
+        pressure)."""
+        if self.comm.rank == 0:
+            method = self.disc.method
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
             load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
-            post.plot_deformed_polygons(self.out / "deformed.png", p.disc.output_mesh, u,
-                                        title=f"{p.method}: load factor {load:.3g}")
-            post.plot_deformed_polygons(self.out / "uy.png", p.disc.output_mesh, u, node_values=u[:, 1],
+            post.plot_deformed_polygons(self.out / "deformed.png", self.disc.output_mesh, u,
+                                        title=f"{method}: load factor {load:.3g}")
+            post.plot_deformed_polygons(self.out / "uy.png", self.disc.output_mesh, u, node_values=u[:, 1],
                                         title="u_y")
             post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
-                                       title=f"{p.method}: contact pressure at load factor {load:.3g}")
+                                       title=f"{method}: contact pressure at load factor {load:.3g}")

@@ -1,9 +1,9 @@
 """summary.json of a run, typed: what :meth:`ContactProblem.solve` writes, read back.
 
-The file is written by :class:`~dolfinx_sfvem.problem.ContactProblem` (``summary``): the
+The file is written by :class:`~dolfinx_sfvem.load_path.LoadPath` (``summary``): the
 discretization (``method``, ``dofs`` and the mesh facts of its ``describe()``), the run
 (``ranks``, ``wall_time_s``, ``converged``, ``message``), the ``parameters`` and one record per
-attempted load step (:class:`~dolfinx_sfvem.solver.StepRecord`). Every reader of the file uses
+attempted load step (:class:`StepRecord`). Every reader of the file uses
 :func:`read_summary` instead of the raw keys.
 """
 from __future__ import annotations
@@ -23,10 +23,34 @@ STOPPED_BY_SIGNAL = "stopped by signal"
 _RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "message", "parameters", "steps")
 
 
+@dataclasses.dataclass
+class StepRecord:
+    """One attempted step as the load path writes it (an entry of ``steps``; read back as
+    :class:`Step`)."""
+    step: int
+    load: float
+    newton_iterations: int
+    residual_norms: list[float]
+    converged: bool
+    reaction: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    min_J: float = float("nan")
+    kinked_elements: int = 0
+    negative_pivots: int | None = None
+    failure: str = ""
+    gap: dict | None = None
+    contact: list[dict] = dataclasses.field(default_factory=list)
+    max_displacement: float = float("nan")
+    wall_time_s: float = 0.0
+    extra: dict[str, typing.Any] = dataclasses.field(default_factory=dict)
+    dofs: int = 0                   # unknowns of the mesh the step was solved on
+    refined_polygons: int = 0       # polygons split after this step by adaptive refinement
+    loads: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)   # magnitude, displacement per load
+
+
 @dataclasses.dataclass(frozen=True)
 class Step:
     """One attempted load step (an entry of ``steps``; fields of
-    :class:`~dolfinx_sfvem.solver.StepRecord`, missing ones at their defaults).
+    :class:`StepRecord`, missing ones at their defaults).
 
     Attributes
     ----------
@@ -63,6 +87,9 @@ class Step:
         Unknowns of the mesh the step was solved on (0: not recorded, in files of older versions).
     refined_polygons : int
         Polygons split by adaptive refinement after this step (0: none).
+    loads : dict name -> {"magnitude": float, "displacement": float}
+        Every load's magnitude at this step and its work-conjugate displacement
+        (:mod:`~dolfinx_sfvem.loads`).
     """
 
     load: float
@@ -82,6 +109,7 @@ class Step:
     extra: dict[str, typing.Any] = dataclasses.field(default_factory=dict)
     dofs: int = 0
     refined_polygons: int = 0
+    loads: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
     def value(self, key: str) -> float | None:
         """An observer of ``extra``, else a numeric field of the step (e.g. ``max_displacement``);

@@ -18,7 +18,7 @@ from petsc4py import PETSc
 from . import _compat
 from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, load_loop, projected_fields,
                        residual_loop, tangent_loop)
-from .discretization import AssemblyInfo, Discretization, Marker, check_materials
+from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
 from .compiled_energy import EnergyKernels, compile_kernels
@@ -40,10 +40,16 @@ def _tangent_at(k: EnergyKernels) -> tuple[int, int, int]:
 
 @dataclass
 class _Region:
+    """A region's energy, or an energy term on a region (``term``), with its compiled kernels."""
     tag: int
     energy: Energy
     kernels: EnergyKernels
     polygons: np.ndarray     # local polygon indices (int64)
+    term: EnergyTerm | None = None
+
+    @property
+    def params(self) -> dict[str, float]:
+        return self.energy.params if self.term is None else self.term.params
 
 
 class SFVEMDiscretization(Discretization):
@@ -83,7 +89,9 @@ class SFVEMDiscretization(Discretization):
                                       proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, nphi, phi_off)
         self._tables = PolygonTables(space.dof_offsets, space.dofs, phi_off, Phi, space.q_offsets, space.w_q)
         self._coo_off = np.concatenate([[0], np.cumsum(4 * nd * nd)]).astype(np.int64)
-        self._global_node = space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32))
+        self.terms: list[_Region] = []         # energy terms (:meth:`add_energy_term`)
+        self.global_nodes = np.asarray(space.index_map.local_to_global(np.arange(space.n_local_nodes, dtype=np.int32)),
+                                       dtype=np.int64)
         self._values = np.zeros(self._coo_off[-1] + 2 * space.n_owned_nodes)     # the diagonal's entries stay 0
         # boundary loop v_0, m_0, v_1, m_1, ... of every polygon (injectivity guard)
         N = (nd - 1) // 2
@@ -94,6 +102,7 @@ class SFVEMDiscretization(Discretization):
         self._solid = np.zeros(space.polygons.size, dtype=bool)
         for reg in self.regions:
             self._solid[reg.polygons] = not reg.energy.is_medium
+        self.element_loops = (self._loop_offsets, self._loop, space.polygons)
 
     # ------------------------------------------------------------------ PETSc objects
     def create_vector(self) -> PETSc.Vec:
@@ -107,7 +116,7 @@ class SFVEMDiscretization(Discretization):
         A.setSizes(((n_owned, n_global), (n_owned, n_global)))
         A.setType(PETSc.Mat.Type.AIJ)
         A.setBlockSize(2)
-        rows, cols = coo_pattern(space.dof_offsets, space.dofs, self._global_node.astype(np.int64), self._coo_off)
+        rows, cols = coo_pattern(space.dof_offsets, space.dofs, self.global_nodes, self._coo_off)
         start = 2 * space.index_map.local_range[0]
         diagonal = np.arange(start, start + n_owned, dtype=np.int32)
         _compat.mat_set_preallocation_coo(A, np.concatenate([rows, diagonal]), np.concatenate([cols, diagonal]))
@@ -117,8 +126,9 @@ class SFVEMDiscretization(Discretization):
 
     # ------------------------------------------------------------------ assembly
     def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
-        """Internal force vector b = ∂W/∂ũ (Eq. 52) at x (ghosts of x must be current)."""
-        stats = self._internal_force(x, b, self.regions)
+        """Internal force vector b = ∂W/∂ũ (Eq. 52) at x (ghosts of x must be current), energy
+        terms included."""
+        stats = self._internal_force(x, b, self.regions + self.terms)
         with x.localForm() as xl:
             folded, kinked = folded_elements(self._loop_offsets, self._loop, self.space.x_nodes,
                                              xl.array_r.reshape(-1, 2),
@@ -140,7 +150,7 @@ class SFVEMDiscretization(Discretization):
             for reg in regions:
                 k = reg.kernels
                 P_at, T_at = _residual_at(k)
-                c = k.pack_constants(reg.energy.params)
+                c = k.pack_constants(reg.params)
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
                               self._tables, u, R, stats)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -158,18 +168,42 @@ class SFVEMDiscretization(Discretization):
                             gather_count(self.comm, kinked, self.space.polygons)[0])
 
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Tangent (Eq. 56) at x into A, constraints not applied."""
+        """Tangent (Eq. 56) at x into A, energy terms included, constraints not applied."""
         values = self._values
         with x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)
-            for reg in self.regions:
+            for reg in self.regions + self.terms:
                 k = reg.kernels
                 D_at, A_at, B_at = _tangent_at(k)
-                c = k.pack_constants(reg.energy.params)
+                c = k.pack_constants(reg.params)
                 tangent_loop(k.tangent, c, k.F_offset, k.G_offset, D_at, A_at, B_at, k.uses_gradient,
-                             reg.polygons, self._tables, u, values, self._coo_off)
+                             reg.polygons, self._tables, u, values, self._coo_off, reg.term is not None)
         _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
         A.assemble()
+
+    # ------------------------------------------------------------------ energy terms
+    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
+        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
+        ``uses_gradient`` as the region's energy does: the term is assembled with the region's
+        basis tables."""
+        region = next((reg for reg in self.regions if reg.tag == tag), None)
+        if region is None:
+            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
+        if energy.uses_gradient != region.energy.uses_gradient:
+            raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
+                             f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
+        term = EnergyTerm(tag, energy, dict(energy.params))
+        self.terms.append(_Region(tag, energy, compile_kernels(energy, self.comm), region.polygons, term))
+        return term
+
+    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
+                   params: typing.Mapping[str, float] | None = None) -> float:
+        """b = ∂/∂ũ ∫ ψ dΩ of the term alone (Eq. 52 over its region) with ``params``; returns ∫ ψ dΩ."""
+        reg = next(reg for reg in self.terms if reg.term is term)
+        alone = _Region(reg.tag, reg.energy, reg.kernels, reg.polygons,
+                        EnergyTerm(term.tag, term.energy, dict(params if params is not None else term.params)))
+        stats = self._internal_force(x, b, [alone])
+        return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
@@ -226,6 +260,10 @@ class SFVEMDiscretization(Discretization):
     @property
     def node_key(self) -> np.ndarray:
         return self.space.node_key
+
+    @property
+    def node_point(self) -> np.ndarray:
+        return self.space.node_point
 
     def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Π^∇_2 u (Eq. 36) at ``points`` (n, 2) inside this rank's polygons: (values (n, 2), found (n,)

@@ -87,7 +87,7 @@ def test_petsc_options_reach_snes(tmp_path):
     """One Newton iteration per try (two tries per attempt: the default line search and its
     fallback) cannot converge even the smallest cut-back increment: the run stops with exit
     code 1 and keeps its (failed) history."""
-    proc = run_demo("cbox", "--uy", "-1", "--steps", "2", "--h", "0.1", "--quiet", "-snes_max_it", "1",
+    proc = run_demo("cbox", "--uy", "-1", "--steps", "2", "--h", "0.1", "--quiet", "-tmc_snes_max_it", "1",
                     out=tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr
@@ -95,7 +95,7 @@ def test_petsc_options_reach_snes(tmp_path):
 
     summary = read_summary(tmp_path)
     assert not summary.converged and "failed" in summary.message
-    assert summary.parameters["petsc_options"] == ["-snes_max_it", "1"]
+    assert summary.parameters["petsc_options"] == ["-tmc_snes_max_it", "1"]
     assert summary.steps and all(s.newton_iterations <= 2 for s in summary.steps)
     assert len(csv_rows(tmp_path / "load_path.csv")) == len(summary.converged_steps)
 

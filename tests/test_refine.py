@@ -300,12 +300,16 @@ def test_refined_mesh_passes_the_contact_checks():
     assert result.converged and 0 < result.steps[-1]["gap"]["value"] < 0.2
 
 
-def test_fem_and_body_force_are_refused():
+def test_fem_is_refused_a_body_force_follows_the_refined_mesh():
+    """The FEM cannot be refined; a body force is bound to the refined mesh again (loads are
+    definitions, not vectors of one mesh): its resultant is the same before and after."""
     fem = sf.ContactProblem(sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, tag=SOLID),
                             {SOLID: sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
     with pytest.raises(ValueError, match="only method='vem' can be refined"):
         fem.refine([0])
     vem = compressed_block(sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, tag=SOLID))
-    vem.body_force(lambda x: np.zeros_like(x))
-    with pytest.raises(ValueError, match="body force"):
-        vem.refine([0])
+    vem.body_force(lambda x: np.stack([np.zeros(x.shape[1]), -np.ones(x.shape[1])]))
+    before = vem.equilibrium().loads[0].magnitude
+    vem.refine([0])
+    after = vem.equilibrium().loads[0]
+    assert after.disc is vem.disc and before == pytest.approx(1.0) and after.magnitude == pytest.approx(1.0)

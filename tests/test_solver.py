@@ -19,7 +19,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes, solver
+from dolfinx_sfvem import meshes, snes as solver
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -126,7 +126,7 @@ def test_each_state_is_assembled_once(monkeypatch):
     assert result.converged, result.message
     steps = converged(result.steps)
     assert len(calls) == sum(s["newton_iterations"] for s in steps) + len(steps) + 1
-    fresh = problem.reactions(problem._constraints()[2], 1.0)
+    fresh = problem.reactions()
     np.testing.assert_allclose(steps[-1]["reaction"]["top"], fresh["top"], rtol=1e-12, atol=1e-14)
 
 
@@ -303,16 +303,16 @@ def test_default_absolute_tolerance_scales_with_the_moduli():
 @pytest.fixture(params=["python", "command line"])
 def solve_with_fixed_atol(request):
     """Solve in 2 steps with ``snes_atol`` 1e-10 (the former fixed default) given as
-    ``petsc_options`` or as a global option (removed afterwards)."""
+    ``petsc_options`` or as a command-line option with the problem's prefix (removed afterwards)."""
     def solve(problem: sf.ContactProblem):
         if request.param == "python":
             return problem.solve(2, petsc_options={"snes_atol": 1e-10})
         options = PETSc.Options()
-        options["snes_atol"] = "1e-10"
+        options[problem.petsc_options_prefix + "snes_atol"] = "1e-10"
         try:
             return problem.solve(2)
         finally:
-            options.delValue("snes_atol")
+            options.delValue(problem.petsc_options_prefix + "snes_atol")
     return solve
 
 

@@ -1,4 +1,4 @@
-"""Newton's method through PETSc SNES, and load stepping with automatic cut-back.
+"""Newton's method for the balance R(u; λ) = 0 at a fixed load factor, through PETSc SNES.
 
 Dirichlet conditions enter through the Newton update (docs/method.md §6), by the constraints
 registered on the discretization (:class:`~dolfinx_sfvem.discretization.Constraints`): the
@@ -6,39 +6,55 @@ first Newton step of a load step moves the constrained unknowns to their new val
 and the free rows of the tangent carry the consistent response. The state is never
 overwritten with the new boundary values before a solve.
 
+PETSc options
+-------------
+Every solver has its own options prefix (default :data:`DEFAULT_PREFIX`, ``tmc_``): its SNES,
+KSP and PC read ``-tmc_snes_monitor``, ``-tmc_ksp_type`` ... from the command line, never the
+unprefixed options a script sets for its own solvers. Options given from Python
+(``petsc_options``) win over the command line, the command line over :data:`DEFAULT_PETSC_OPTIONS`;
+they are put into PETSc's options database only while the solver reads them and removed
+afterwards, so nothing of this library stays in the database.
+
 Default line search: ``bt`` (one residual per Newton iteration when the full step is
 acceptable), and a solve that fails with it is repeated once from its start with
 :data:`FALLBACK_LINE_SEARCH` ``l2`` (about three residuals per iteration, robust at contact
-onset) before the caller cuts the increment back; measurements in docs/performance.md. Every
-option can be changed on the command line or from Python; a line search given there has no
-fallback.
+onset) before the caller cuts the increment back; measurements in docs/performance.md. A line
+search given on the command line or from Python has no fallback.
+
+Default linear solver: MUMPS LDLᵀ (``pc_type cholesky``), which reports the inertia of the
+tangent; :class:`~dolfinx_sfvem.equilibrium.Equilibrium` says when the tangent is not symmetric
+(a follower pressure on an open boundary), and then MUMPS LU (``pc_type lu``) is the default.
 
 Default absolute tolerance: unless ``snes_atol`` is given (command line or Python), it
 follows the round-off level of the residual,
 
     atol = ATOL_ROUNDOFF_FACTOR * eps * F_c,
-    F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf,
+    F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + ||f||_inf,
 
 with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
-tangent of the start state of every solve), ``x`` the state, ``g`` the
-prescribed values, ``λ f_ext`` the external force and ``eps`` machine epsilon; ``atol`` is
-updated at every tangent. It is proportional to the moduli, so moduli and body forces scaled
-together give the same Newton iterations and solution. Why and what was measured:
-docs/method.md §6.
+tangent of the start state of every solve), ``x`` the state, ``g`` the prescribed values,
+``f`` the external force at the load factor of the solve (body force and loads) and ``eps``
+machine epsilon; ``atol`` is updated at every tangent. It is proportional to the moduli, so
+moduli and loads scaled together give the same Newton iterations and solution. Why and what was
+measured: docs/method.md §6.
 """
 from __future__ import annotations
 
-import time
 import typing
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
-from .discretization import AssemblyInfo, Discretization
+from .discretization import AssemblyInfo
 
+if typing.TYPE_CHECKING:
+    from .equilibrium import Equilibrium
+
+#: options prefix of a problem's solvers unless the user gives another
+DEFAULT_PREFIX = "tmc_"
 DEFAULT_PETSC_OPTIONS: dict[str, str] = {
     "snes_type": "newtonls",
     "snes_linesearch_type": "bt",
@@ -57,56 +73,31 @@ ATOL_ROUNDOFF_FACTOR = 1e4
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
 
+Options = typing.Mapping[str, typing.Any]
 
-def set_petsc_options(tokens: typing.Sequence[str] | typing.Mapping[str, typing.Any]) -> None:
-    """Put options into PETSc's global database.
 
-    Parameters
-    ----------
-    tokens
-        Command-line style tokens (``["-snes_monitor", "-ksp_type", "gmres"]``) or a
-        mapping ``{"snes_monitor": None, "ksp_type": "gmres"}``.
+def options_from_tokens(tokens: typing.Sequence[str], prefix: str = DEFAULT_PREFIX) -> dict[str, str]:
+    """PETSc options from command-line tokens (``["-tmc_snes_monitor", "-tmc_ksp_type", "gmres"]``),
+    keyed without the leading ``-`` and without ``prefix``: ``{"snes_monitor": "", "ksp_type": "gmres"}``.
+
+    Raises
+    ------
+    ValueError
+        For an option that does not carry ``prefix`` (it would be meant for another solver).
     """
-    opts = PETSc.Options()
-    if isinstance(tokens, typing.Mapping):
-        for key, value in tokens.items():
-            opts[key.lstrip("-")] = "" if value is None else str(value)
-        return
     tokens = list(tokens)
-    for k, tok in enumerate(tokens):
-        if not tok.startswith("-") or _is_number(tok):
+    options = {}
+    for k, token in enumerate(tokens):
+        if not token.startswith("-") or _is_number(token):
             continue
-        nxt = tokens[k + 1] if k + 1 < len(tokens) else None
-        value = nxt if nxt is not None and (not nxt.startswith("-") or _is_number(nxt)) else ""
-        opts[tok.lstrip("-")] = value
-
-
-class _scoped_options:
-    """Defaults and Python-given options applied only while a solver reads the database.
-
-    Command-line options win over the defaults; options given from Python win over both.
-    Afterwards the database is as before, so one solver's options never leak into another.
-    """
-
-    def __init__(self, options: typing.Mapping[str, typing.Any] | None):
-        db = PETSc.Options()
-        self._entries = {k: v for k, v in DEFAULT_PETSC_OPTIONS.items() if not db.hasName(k)}
-        self._entries.update({k.lstrip("-"): "" if v is None else str(v) for k, v in (options or {}).items()})
-
-    def __enter__(self):
-        db = PETSc.Options()
-        self._saved = {k: db.getString(k) if db.hasName(k) else None for k in self._entries}
-        set_petsc_options(self._entries)
-        return self
-
-    def __exit__(self, *exc):
-        db = PETSc.Options()
-        for key, value in self._saved.items():
-            if value is None:
-                db.delValue(key)
-            else:
-                db[key] = value
-        return False
+        name = token.lstrip("-")
+        if not name.startswith(prefix):
+            raise ValueError(f"PETSc option {token!r}: this library's options carry the prefix {prefix!r} "
+                             f"(e.g. -{prefix}snes_monitor, -{prefix}ksp_type gmres)")
+        following = tokens[k + 1] if k + 1 < len(tokens) else None
+        value = following if following is not None and (not following.startswith("-") or _is_number(following)) else ""
+        options[name[len(prefix):]] = value
+    return options
 
 
 def _is_number(s: str) -> bool:
@@ -115,6 +106,49 @@ def _is_number(s: str) -> bool:
         return True
     except ValueError:
         return False
+
+
+class prefixed_options:
+    """Context manager: ``options`` (keys without prefix) in PETSc's database under ``prefix``
+    while a solver reads them, with :data:`DEFAULT_PETSC_OPTIONS` beneath them where the
+    command line gives nothing; afterwards the database is as before.
+
+    Attributes
+    ----------
+    given : set of str
+        The option names (without prefix) given on the command line or in ``options``.
+    """
+
+    def __init__(self, prefix: str, options: Options | None, defaults: Options = DEFAULT_PETSC_OPTIONS):
+        db = PETSc.Options()
+        self.prefix = prefix
+        on_command_line = {k for k in defaults if db.hasName(prefix + k)}
+        self._entries = {k: v for k, v in defaults.items() if k not in on_command_line}
+        given = {k.lstrip("-"): "" if v is None else str(v) for k, v in (options or {}).items()}
+        self._entries.update(given)
+        self.given = on_command_line | set(given) | {name for name in _names_with_prefix(db, prefix)}
+
+    def __enter__(self) -> "prefixed_options":
+        db = PETSc.Options()
+        self._saved = {k: db.getString(self.prefix + k) if db.hasName(self.prefix + k) else None
+                       for k in self._entries}
+        for key, value in self._entries.items():
+            db[self.prefix + key] = value
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        db = PETSc.Options()
+        for key, value in self._saved.items():
+            if value is None:
+                db.delValue(self.prefix + key)
+            else:
+                db[self.prefix + key] = value
+        return False
+
+
+def _names_with_prefix(db: PETSc.Options, prefix: str) -> list[str]:
+    """Option names (without prefix) that the database holds under ``prefix``."""
+    return [name[len(prefix):] for name in db.getAll() if name.startswith(prefix)]
 
 
 class SolveFailed(RuntimeError):
@@ -126,7 +160,7 @@ class NewtonResult:
     """Outcome of one Newton solve (one load step attempt).
 
     ``failure`` says why the state is not accepted ("" when ``converged``): SNES's reason,
-    J <= 0, a folded element, or (set by :class:`~dolfinx_sfvem.ContactProblem`) overlapping solids.
+    J <= 0, a folded element, or (set by the load path) overlapping solids.
     ``negative_pivots``: negative pivots of the last LDL^T factorization of the solve (MUMPS
     INFOG(12)), i.e. the number of negative eigenvalues of the tangent with the constraints
     eliminated, at the last state Newton factorized; None with another factorization.
@@ -158,6 +192,18 @@ def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -
                    "(docs/gamma-1e-6.md)")
 
 
+def state_failure(info: AssemblyInfo) -> list[str]:
+    """Why a state with diagnostics ``info`` is not admissible (empty if it is)."""
+    why = []
+    if not (info.min_J > 0.0):
+        why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
+    if info.folded:
+        why.append(f"{info.folded} folded element(s), e.g. {info.folded_polygon}")
+    if not np.isfinite(info.energy):
+        why.append("non-finite energy")
+    return why
+
+
 def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
     state with diagnostics ``info`` is rejected."""
@@ -169,40 +215,42 @@ def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], ato
         stalled = reason in (PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
         if stalled and info.admissible and norms and atol > 0:
             why.append(_stall(norms, atol, roundoff))
-    if not (info.min_J > 0.0):
-        why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
-    if info.folded:
-        why.append(f"{info.folded} folded element(s), e.g. {info.folded_polygon}")
-    if not np.isfinite(info.energy):
-        why.append("non-finite energy")
-    return "; ".join(why)
+    return "; ".join(why + state_failure(info))
 
 
-class NewtonSolver:
-    """SNES Newton solver for ``R(x) = 0`` with constrained rows ``x_c = g_c``.
+def negative_pivots(pc: PETSc.PC) -> int | None:
+    """Negative pivots of the last factorization of ``pc`` if it was MUMPS LDL^T (``pc_type
+    cholesky``): INFOG(12), the number of negative eigenvalues of the factorized matrix
+    (Sylvester's law of inertia); None for any other linear solver."""
+    if pc.getType() != "cholesky" or pc.getFactorSolverType() != "mumps":
+        return None
+    return int(pc.getFactorMatrix().getMumpsInfog(12))
+
+
+class SNESNewton:
+    """PETSc SNES (Newton with line search) for ``R(x; λ) = 0`` with constrained rows ``x_c = g_c``.
 
     Parameters
     ----------
-    disc
-        The discretization, its constraints registered (:meth:`Discretization.set_constraints`)
-        before :meth:`solve`.
+    equilibrium
+        The balance R(u; λ) and its tangent; the constraints of its discretization registered
+        (:meth:`Discretization.set_constraints`) before :meth:`solve`.
     options
-        PETSc options for this solver (override defaults and the command line). Without
-        ``snes_atol`` (here or on the command line) the absolute tolerance follows the
+        PETSc options for this solver, keys without prefix (override the command line and the
+        defaults; module docstring). Without ``snes_atol`` the absolute tolerance follows the
         round-off level of the residual (:meth:`absolute_tolerance`).
-    f_ext
-        External force vector at load factor 1 (scaled by the load factor of each solve).
+    prefix
+        Options prefix of the SNES, KSP and PC.
     """
 
-    def __init__(self, disc: Discretization, options: typing.Mapping[str, typing.Any] | None = None,
-                 f_ext: PETSc.Vec | None = None):
+    def __init__(self, equilibrium: Equilibrium, options: Options | None = None, prefix: str = DEFAULT_PREFIX):
+        self.equilibrium = equilibrium
+        disc = equilibrium.disc
         self.disc = disc
         self.comm = disc.comm
+        self.prefix = prefix
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
-        self.f_ext = f_ext
-        self._f_ext_norm = f_ext.norm(PETSc.NormType.INFINITY) if f_ext is not None else 0.0
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
-        self.load = 1.0
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
         #: internal minus external force at the state ``_force_state``, constraints not applied
@@ -218,24 +266,29 @@ class NewtonSolver:
         self.worst_info = None      # smallest J met at any trial point of the current solve
 
         self.snes = snes = PETSc.SNES().create(self.comm)
+        snes.setOptionsPrefix(prefix)
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
         snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
         self.options = dict(options or {})
-        self.fallback = not (PETSc.Options().hasName("snes_linesearch_type")
-                             or any(k.lstrip("-") == "snes_linesearch_type" for k in self.options))
-        with _scoped_options(options):
+        if not equilibrium.symmetric:
+            self.options.setdefault("pc_type", "lu")
+        with prefixed_options(prefix, self.options) as scoped:
             snes.setFromOptions()
-            self.scaled_atol = not PETSc.Options().hasName("snes_atol")
+            self.scaled_atol = "snes_atol" not in scoped.given
+            self.fallback = "snes_linesearch_type" not in scoped.given
         snes.setLineSearchPreCheck(self._unlift)
+
+    @property
+    def ksp(self) -> PETSc.KSP:
+        """The linear solver of the Newton steps (its factorization serves the arc-length's bordering too)."""
+        return self.snes.getKSP()
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        info = self.disc.residual(x, b)
+        info = self.equilibrium.residual(x, b)
         if self.worst_info is None or not (info.min_J >= self.worst_info.min_J):
             self.worst_info = info
-        if self.f_ext is not None:
-            b.axpy(-self.load, self.f_ext)
         b.copy(self.force)
         x.copy(self._force_state)
         self._force_info = info
@@ -247,7 +300,7 @@ class NewtonSolver:
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if not self._start_tangent_at(x):
-            self.disc.assemble_tangent(x, A)
+            self.equilibrium.tangent(x, A)
         self._start_state_current = False
         if self.scaled_atol:
             snes.setTolerances(atol=self.absolute_tolerance(x))
@@ -271,8 +324,8 @@ class NewtonSolver:
         """The tangent at the start state ``x`` of a solve into :attr:`A`, constraints not applied:
         its free-row norm sets the absolute tolerance before the first iteration, and the first
         Jacobian evaluation (at this state) uses it as it is (collective)."""
-        self.disc.assemble_tangent(x, self.A)
-        self._stiffness = self._free_row_norm(self.A)
+        self.equilibrium.tangent(x, self.A)
+        self._stiffness = self.free_row_norm(self.A)
         x.copy(self._start_state)
         self._start_state_current = True
 
@@ -286,7 +339,7 @@ class NewtonSolver:
         diff.destroy()
         return same
 
-    def _free_row_norm(self, A: PETSc.Mat) -> float:
+    def free_row_norm(self, A: PETSc.Mat) -> float:
         """Largest sum of absolute values over the free rows of A (collective)."""
         indptr, _, values = A.getValuesCSR()
         rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
@@ -294,23 +347,25 @@ class NewtonSolver:
         free = self.disc.constraints.owned_free
         return self.comm.allreduce(float(sums[free].max(initial=0.0)), op=MPI.MAX)
 
-    def absolute_tolerance(self, x: PETSc.Vec) -> float:
+    def absolute_tolerance(self, x: PETSc.Vec, stiffness: float | None = None) -> float:
         """The default absolute tolerance at the state x (collective).
 
-        ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + |λ| ||f_ext||_inf)``
-        with ``||K||_inf`` of the free rows from the tangent at the start state of the current
-        solve (0 before any) and ``g``, ``λ`` of the current solve; see the module docstring.
+        ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf)``
+        with ``||K||_inf`` of the free rows (``stiffness``; default: from the tangent at the
+        start state of the current solve, 0 before any), ``g`` of the current solve and ``f``
+        the external force at its load factor; see the module docstring.
         """
+        stiffness = self._stiffness if stiffness is None else stiffness
         g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
-        force = self._stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + abs(self.load) * self._f_ext_norm
+        force = stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + self.equilibrium.external_force_norm()
         return ATOL_ROUNDOFF_FACTOR * float(np.finfo(np.float64).eps) * force
 
     def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
         """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
-        constrained unknowns (``disc.constraints.owned``) and the external force scaled by
-        ``load``; a failed solve with the default line search
-        is repeated from the same start with :data:`FALLBACK_LINE_SEARCH` (its iterations are
-        counted in the result's, its residual norms and failure are the result's)."""
+        constrained unknowns (``disc.constraints.owned``) at the load factor ``load``; a failed
+        solve with the default line search is repeated from the same start with
+        :data:`FALLBACK_LINE_SEARCH` (its iterations are counted in the result's, its residual
+        norms and failure are the result's)."""
         start = x.copy() if self.fallback else None
         result = self._solve_once(x, g, load)
         if start is None:
@@ -329,28 +384,32 @@ class NewtonSolver:
         return retry
 
     def force_at(self, x: PETSc.Vec) -> AssemblyInfo:
-        """Internal minus external force at ``x`` (ghosts current) into :attr:`force`, constraints
-        not applied, with the state's diagnostics: the last residual's if SNES evaluated it at
-        exactly this state, else assembled (collective)."""
+        """Internal minus external force at ``x`` (ghosts current) and the current load factor
+        into :attr:`force`, constraints not applied, with the state's diagnostics: the last
+        residual's if SNES evaluated it at exactly this state, else assembled (collective)."""
         self._force_state.axpy(-1.0, x)
         same = self._force_info is not None and self._force_state.norm(PETSc.NormType.NORM_INFINITY) == 0.0
         if not same:
-            self._force_info = self.disc.residual(x, self.force)
-            if self.f_ext is not None:
-                self.force.axpy(-self.load, self.f_ext)
+            self._force_info = self.equilibrium.residual(x, self.force)
         x.copy(self._force_state)
         return self._force_info
 
+    def forget_force(self) -> None:
+        """The kept force no longer belongs to its state (the load factor or the loads changed)."""
+        self._force_info = None
+
     def _set_line_search(self, kind: str) -> None:
         """Set SNES up again from this solver's options with the line search ``kind``."""
-        with _scoped_options({**self.options, "snes_linesearch_type": kind}):
+        with prefixed_options(self.prefix, {**self.options, "snes_linesearch_type": kind}):
             self.snes.setFromOptions()
         self.snes.setLineSearchPreCheck(self._unlift)
 
     def _solve_once(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
         """One SNES solve from ``x`` with the line search as set (see :meth:`solve`)."""
         self.g = np.asarray(g, dtype=np.float64)
-        self.load = load
+        if load != self.equilibrium.load:
+            self.equilibrium.set_load(load)
+            self.forget_force()
         self.history = []
         self.worst_info = None
         self._start(x)
@@ -371,120 +430,13 @@ class NewtonSolver:
                             self.negative_pivots())
 
     def negative_pivots(self) -> int | None:
-        """Negative pivots of the last factorization if it was MUMPS LDL^T (``pc_type cholesky``,
-        the default): INFOG(12), the number of negative eigenvalues of the factorized tangent
-        (Sylvester's law of inertia); None for any other linear solver or before a factorization."""
-        pc = self.snes.getKSP().getPC()
-        if pc.getType() != "cholesky" or pc.getFactorSolverType() != "mumps" or self.snes.getIterationNumber() == 0:
+        """Negative pivots of the last factorization of this solve if it was MUMPS LDL^T (the
+        default with a symmetric tangent; :func:`negative_pivots`); None before a factorization."""
+        if self.snes.getIterationNumber() == 0:
             return None
-        return int(pc.getFactorMatrix().getMumpsInfog(12))
+        return negative_pivots(self.ksp.getPC())
 
-
-@dataclass
-class Attempt:
-    """One attempted load step of :meth:`LoadStepper.attempts`."""
-    load: float                 # the load factor aimed at
-    result: NewtonResult
-    wall_time_s: float          # of the Newton solve
-
-    @property
-    def converged(self) -> bool:
-        return self.result.converged
-
-
-@dataclass
-class StepRecord:
-    """One attempted load step (entry of ``summary.json``'s ``steps``)."""
-    step: int
-    load: float
-    newton_iterations: int
-    residual_norms: list[float]
-    converged: bool
-    reaction: dict[str, list[float]] = field(default_factory=dict)
-    min_J: float = float("nan")
-    kinked_elements: int = 0
-    negative_pivots: int | None = None
-    failure: str = ""
-    gap: dict | None = None
-    contact: list[dict] = field(default_factory=list)
-    max_displacement: float = float("nan")
-    wall_time_s: float = 0.0
-    extra: dict[str, typing.Any] = field(default_factory=dict)
-    dofs: int = 0                   # unknowns of the mesh the step was solved on
-    refined_polygons: int = 0       # polygons split after this step by adaptive refinement
-
-
-class LoadStepper:
-    """Ramp the load factor λ from ``start`` to ``until`` (default 0 to 1) in increments of
-    ``1 / steps``, the last one shortened to land on ``until``.
-
-    A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
-    by the caller such as overlapping solids) is retried from the last
-    converged state with half the increment, down to ``min_increment``; after
-    ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
-    the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
-    raised; every attempt has already been yielded by :meth:`attempts`. The stepper's
-    own state (:meth:`state`) is what a checkpoint needs to continue exactly.
-    """
-
-    def __init__(self, steps: int, *, min_increment: float | None = None, grow_after: int = 2,
-                 max_attempts: int = 10_000, start: float = 0.0, until: float = 1.0):
-        if not (isinstance(steps, (int, np.integer)) and steps >= 1):
-            raise ValueError(f"steps must be a positive integer, got {steps!r}")
-        self.nominal = 1.0 / steps
-        self.min_increment = min_increment if min_increment is not None else self.nominal / 2 ** 10
-        if not (0 < self.min_increment <= self.nominal):
-            raise ValueError(f"min_increment must be in (0, 1/steps], got {self.min_increment}")
-        if not (0.0 <= start <= until <= 1.0):
-            raise ValueError(f"need 0 <= start <= until <= 1, got start = {start}, until = {until}")
-        self.grow_after = grow_after
-        self.max_attempts = max_attempts
-        self.until = until
-        self.load, self.increment, self.streak = float(start), self.nominal, 0
-
-    def state(self) -> dict[str, float]:
-        return {"load": self.load, "increment": self.increment, "streak": self.streak}
-
-    def restore(self, state: typing.Mapping[str, float]) -> None:
-        self.load, self.increment, self.streak = float(state["load"]), float(state["increment"]), int(state["streak"])
-
-    def attempts(self, solve_to: typing.Callable[[float], NewtonResult], x: PETSc.Vec) -> typing.Iterator[Attempt]:
-        """Run the load path from the state ``x``, yielding every attempted step.
-
-        ``solve_to(load)`` solves for the load factor ``load`` from ``x`` (updated in place). A
-        converged attempt is yielded after the stepper has moved to its load; a failed one after
-        ``x`` is back at the last converged state and the increment is halved. The caller may stop
-        after any attempt (``break``): the stepper and ``x`` are then at the last converged step.
-        Raises :class:`SolveFailed` after yielding an attempt that failed with the smallest
-        increment.
-        """
-        for _ in range(self.max_attempts):
-            if self.load >= self.until - 1e-12:
-                return
-            target = min(self.load + self.increment, self.until)
-            saved = x.copy()
-            t0 = time.perf_counter()
-            result = solve_to(target)
-            elapsed = time.perf_counter() - t0
-            if result.converged:
-                self.load = target
-                self.streak += 1
-                if self.increment < self.nominal and self.streak >= self.grow_after:
-                    self.increment, self.streak = min(2 * self.increment, self.nominal), 0
-            else:
-                saved.copy(x)
-                x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-                self.streak = 0
-            saved.destroy()
-            smallest = not result.converged and self.increment / 2 < self.min_increment * (1 - 1e-12)
-            if not (result.converged or smallest):
-                self.increment /= 2
-            yield Attempt(target, result, elapsed)
-            if smallest:
-                raise SolveFailed(
-                    f"load step to load factor {target:.6g} failed with the smallest increment "
-                    f"{self.increment:.3g} ({result.failure}; {result.iterations} Newton iterations, "
-                    f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
-                    f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
-                    f"last converged load factor {self.load:.6g}")
-        raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {self.load:.6g})")
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        for obj in (self.snes, self.A, self.b, self.force, self._force_state, self._unlifted, self._start_state):
+            obj.destroy()

@@ -1,0 +1,173 @@
+"""How a load path advances: controls that yield attempted steps to the load-path driver.
+
+A *control* decides the next point of the path and hands every attempt, converged or not, to
+:class:`~dolfinx_sfvem.load_path.LoadPath`, in the manner of FElupe's ``Step`` feeding its
+``Job``. Two controls exist:
+
+- :class:`LoadStepping` (the default): the load factor λ is prescribed, ramped in increments
+  with automatic cut-back; each step is a Newton solve at fixed λ;
+- :class:`~dolfinx_sfvem.arclength.ArcLength`: λ is an unknown, each step a Newton solve of the
+  balance and an arc-length constraint (limit points, snap-through).
+
+A control talks to the equilibrium solvers of the current mesh through a
+:class:`~dolfinx_sfvem.load_path.StepSolver` (``solver.x`` the state, ``solver.solve_at(λ)``
+Newton at fixed λ with the contact checks, and what arc-length needs); it keeps its own state
+(:meth:`Control.state`) so that a checkpoint continues a stopped run exactly.
+"""
+from __future__ import annotations
+
+import abc
+import time
+import typing
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+
+from .snes import NewtonResult, SolveFailed
+
+if typing.TYPE_CHECKING:
+    from .load_path import StepSolver
+
+
+@dataclass
+class Attempt:
+    """One attempted step of a control (or the re-balancing of a continued path)."""
+    load: float                 # the load factor aimed at (arc-length: reached)
+    result: NewtonResult
+    wall_time_s: float          # of the solve
+    rebalancing: bool = False   # equilibrium at the load already reached, not a new point of the path
+
+    @property
+    def converged(self) -> bool:
+        return self.result.converged
+
+
+class Control(abc.ABC):
+    """The common part of the controls (module docstring).
+
+    Attributes
+    ----------
+    load : float
+        Load factor λ of the last converged step.
+    until : float
+        Load factor at which the path ends.
+    finished : bool
+        The path ended by another criterion than ``until`` (:meth:`passed`).
+    previous : PETSc.Vec or None
+        The converged state before the last one (predictors, directions; kept in checkpoints).
+    """
+
+    load: float
+    until: float
+    finished: bool = False
+    previous: PETSc.Vec | None = None
+
+    @abc.abstractmethod
+    def start(self, load: float, until: float) -> None:
+        """Begin a path at the converged load factor ``load`` that ends at ``until``."""
+
+    @abc.abstractmethod
+    def attempts(self, solver: StepSolver) -> typing.Iterator[Attempt]:
+        """Run the path from the state ``solver.x``, yielding every attempted step.
+
+        A converged attempt is yielded after the control has moved to its load; a failed one
+        after ``solver.x`` is back at the last converged state. The caller may stop after any
+        attempt (``break``): the control and ``solver.x`` are then at the last converged step.
+        Raises :class:`SolveFailed` after yielding an attempt that cannot be retried.
+        """
+
+    @abc.abstractmethod
+    def state(self) -> dict[str, float]:
+        """What a checkpoint needs to continue the path exactly (numbers only)."""
+
+    @abc.abstractmethod
+    def restore(self, state: typing.Mapping[str, float]) -> None:
+        """Continue from a :meth:`state`."""
+
+    @abc.abstractmethod
+    def describe(self) -> dict[str, typing.Any]:
+        """The control and its settings (summary.json; a resumed run must use the same)."""
+
+    def forget_history(self) -> None:
+        """The mesh changed: what the control kept of earlier states no longer applies."""
+
+    def passed(self, record: typing.Any) -> bool:
+        """Whether the converged step ``record`` (a :class:`~dolfinx_sfvem.run_summary.StepRecord`)
+        ends the path before ``until`` (sets :attr:`finished`)."""
+        return False
+
+
+class LoadStepping(Control):
+    """Ramp the load factor λ from ``start`` to ``until`` (default 0 to 1) in increments of
+    ``1 / steps``, the last one shortened to land on ``until``.
+
+    A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
+    by the caller such as overlapping solids) is retried from the last
+    converged state with half the increment, down to ``min_increment``; after
+    ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
+    the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
+    raised; every attempt has already been yielded by :meth:`attempts`. The stepper's
+    own state (:meth:`state`) is what a checkpoint needs to continue exactly.
+    """
+
+    def __init__(self, steps: int, *, min_increment: float | None = None, grow_after: int = 2,
+                 max_attempts: int = 10_000, start: float = 0.0, until: float = 1.0):
+        if not (isinstance(steps, (int, np.integer)) and not isinstance(steps, bool) and steps >= 1):
+            raise ValueError(f"steps must be a positive integer, got {steps!r}")
+        self.steps = int(steps)
+        self.nominal = 1.0 / steps
+        self.min_increment = min_increment if min_increment is not None else self.nominal / 2 ** 10
+        if not (0 < self.min_increment <= self.nominal):
+            raise ValueError(f"min_increment must be in (0, 1/steps], got {self.min_increment}")
+        self.grow_after = grow_after
+        self.max_attempts = max_attempts
+        self.start(start, until)
+
+    def start(self, load: float, until: float) -> None:
+        if not (0.0 <= load <= until <= 1.0):
+            raise ValueError(f"need 0 <= start <= until <= 1, got start = {load}, until = {until}")
+        self.until = until
+        self.load, self.increment, self.streak = float(load), self.nominal, 0
+
+    def state(self) -> dict[str, float]:
+        return {"load": self.load, "increment": self.increment, "streak": self.streak}
+
+    def restore(self, state: typing.Mapping[str, float]) -> None:
+        self.load, self.increment, self.streak = float(state["load"]), float(state["increment"]), int(state["streak"])
+
+    def describe(self) -> dict[str, typing.Any]:
+        return {"control": "load stepping", "steps": self.steps}
+
+    def attempts(self, solver: StepSolver) -> typing.Iterator[Attempt]:
+        x = solver.x
+        for _ in range(self.max_attempts):
+            if self.load >= self.until - 1e-12:
+                return
+            target = min(self.load + self.increment, self.until)
+            saved = x.copy()
+            t0 = time.perf_counter()
+            result = solver.solve_at(target)
+            elapsed = time.perf_counter() - t0
+            if result.converged:
+                self.load = target
+                self.streak += 1
+                if self.increment < self.nominal and self.streak >= self.grow_after:
+                    self.increment, self.streak = min(2 * self.increment, self.nominal), 0
+            else:
+                saved.copy(x)
+                x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                self.streak = 0
+            saved.destroy()
+            smallest = not result.converged and self.increment / 2 < self.min_increment * (1 - 1e-12)
+            if not (result.converged or smallest):
+                self.increment /= 2
+            yield Attempt(target, result, elapsed)
+            if smallest:
+                raise SolveFailed(
+                    f"load step to load factor {target:.6g} failed with the smallest increment "
+                    f"{self.increment:.3g} ({result.failure}; {result.iterations} Newton iterations, "
+                    f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
+                    f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
+                    f"last converged load factor {self.load:.6g}")
+        raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {self.load:.6g})")
