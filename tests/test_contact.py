@@ -229,3 +229,33 @@ def test_contact_pressure_through_a_flat_layer(method):
     assert pressure.size == 9 and np.all(np.abs(pressure / upper.force[1] - 1) < 0.05)
     assert contact.zone[surface].all() and not contact.zone[(contact.body == upper.body) & (contact.X[:, 1] > 2.0)].any()
     assert result.steps[-1]["contact"][0]["force"] == pytest.approx(list(lower.force))
+
+
+# --------------------------------------------------------------------------- pressure recovery
+def neo_hookean_medium(F, G, gamma, mu, K):
+    return gamma * sf.energy.neo_hookean(F, K, mu)
+
+
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_medium_force_without_regularization_is_its_neo_hookean_part(method):
+    """On a curved state (G != 0), the medium force without regularization equals that of the
+    medium's neo-Hookean part written as an energy of its own, and the regularization's force
+    is not zero there."""
+    def problem(energy):
+        options = {"fem_mesh": two_blocks()} if method == "fem" else {}
+        p = sf.ContactProblem(two_blocks(), {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: energy,
+                                             OTHER: sf.Hyperelastic(K=K, mu=MU)}, method=method, verbose=False,
+                              **options)
+        p.set_displacement(ux=lambda x: 0.05 * x[0] * x[1], uy=lambda x: -0.1 * (x[1] - 1.0) ** 2 * (x[0] + 1.0))
+        return p
+
+    def force(p, regularization=True):
+        f = p.disc.create_vector()
+        p.disc.medium_force(p.x, f, regularization)
+        return f.getArray().copy()
+    full = problem(medium(K=0.3))
+    material = problem(sf.UserEnergy(neo_hookean_medium, uses_gradient=False, medium=True, gamma=1e-5, mu=MU, K=0.3))
+    expected = force(material)
+    assert np.abs(expected).max() > 0.0
+    assert force(full, regularization=False) == pytest.approx(expected, rel=1e-10, abs=1e-12 * np.abs(expected).max())
+    assert np.abs(force(full) - expected).max() > 1e-3 * np.abs(expected).max()
