@@ -103,10 +103,10 @@ class ContactPair:
     Attributes
     ----------
     force : (2,) float
-        Total force of the medium on ``body``'s surface facing the partner (force per unit
-        thickness, the units of the reactions).
+        Total force of the medium (its whole energy, regularization included) on ``body``'s
+        surface facing the partner (force per unit thickness, the units of the reactions).
     max_pressure : float
-        Largest normal pressure there (compressive positive; force per unit length).
+        Largest normal pressure there (:attr:`ContactPressure.pressure`; force per unit length).
     zone_length : float
         Deformed length of the contact zone (pressure above the threshold fraction of the largest).
     gap : float
@@ -135,11 +135,17 @@ class ContactPressure:
     X, x : (n, 2)
         Reference and deformed positions of the boundary nodes.
     pressure : (n,)
-        Normal pressure of the medium on the solid (compressive positive).
+        Normal pressure of the medium's material response on the solid (compressive positive;
+        its regularization left out, docs/contact.md "Pressure recovery"), 0 at nodes on no
+        medium-facing edge.
     body, partner_body : (n,) int
         The node's body and the body across the medium it faces (-1: none).
     zone : (n,) bool
         In the contact zone: pressure above :data:`ZONE_THRESHOLD` times its pair's largest.
+    surface : (n,) int
+        The facing surface the node lies on, numbered from 0: a stretch of boundary joined
+        through pieces whose two nodes face the same body (the two beams of the C-box are two
+        surfaces of one pair); -1: none.
     pairs : list of ContactPair
     """
     X: np.ndarray
@@ -148,6 +154,7 @@ class ContactPressure:
     body: np.ndarray
     partner_body: np.ndarray
     zone: np.ndarray
+    surface: np.ndarray
     pairs: list[ContactPair]
 
 
@@ -220,6 +227,7 @@ class SolidBoundary:
         self.n_vertices = n_v
         self.pieces = np.stack([np.concatenate([ia, im]), np.concatenate([im, ib])], axis=1).astype(np.int64)
         self.piece_edge = np.tile(np.arange(n_e), 2)
+        self.edge_nodes = np.stack([ia, im, ib], axis=1).astype(np.int64)
         self.edge_faces_medium = faces_medium
         self.piece_body = np.tile(body[polygon], 2)
         self.piece_tag = np.tile(mesh.tags[polygon], 2).astype(np.int64)
@@ -268,17 +276,19 @@ class SolidBoundary:
         (in the order of :attr:`node_keys`)."""
         return self._gap(*self._deformed(u))
 
-    def gap_and_pressure(self, u: np.ndarray, f: np.ndarray) -> tuple[Gap, ContactPressure]:
+    def gap_and_pressure(self, u: np.ndarray, f: np.ndarray, f_material: np.ndarray) -> tuple[Gap, ContactPressure]:
         """:meth:`gap` and the contact pressure from one evaluation of the deformed boundary.
 
         Parameters
         ----------
-        u, f : (n_nodes, 2)
-            Displacements and the third medium's internal nodal forces ∂W_medium/∂ũ at the
-            boundary nodes (in :attr:`node_keys` order).
+        u, f, f_material : (n_nodes, 2)
+            Displacements, the third medium's internal nodal forces ∂W_medium/∂ũ at the boundary
+            nodes (its whole energy: the pairs' forces) and those of its material response alone,
+            the regularization left out (the pressure), in :attr:`node_keys` order.
         """
         deformed = self._deformed(u)
-        return self._gap(*deformed), self._pressure(*deformed[:3], self._in_node_order(f))
+        return self._gap(*deformed), self._pressure(*deformed[:3], self._in_node_order(f),
+                                                    self._in_node_order(f_material))
 
     def _gap(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, depth: np.ndarray) -> Gap:
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
@@ -289,31 +299,32 @@ class SolidBoundary:
         return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
                    int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
 
-    def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray) -> ContactPressure:
-        """Normal pressure per node and the contact per pair of bodies (docs/contact.md): per edge
-        facing the medium, the medium's force on its three nodes over its deformed length, normal to
-        its chord (a node's force shared by the medium-facing pieces it ends, a midpoint by its
-        edge's two); at a node, the mean of its medium-facing edges'."""
-        a, b = x[self.pieces[:, 0]], x[self.pieces[:, 1]]
-        length = np.linalg.norm(b - a, axis=1)
-        n_edges = self.edge_faces_medium.size
-        facing = self.edge_faces_medium[self.piece_edge].astype(np.float64)
-        pieces_at = np.zeros(self.n_nodes)
-        for end in (0, 1):
-            np.add.at(pieces_at, self.pieces[:, end], facing)
-        force = np.zeros((n_edges, 2))
-        for end in (0, 1):
-            nodes = self.pieces[:, end]
-            np.add.at(force, self.piece_edge, (facing / np.maximum(pieces_at[nodes], 1.0))[:, None] * f[nodes])
-        edge_length = np.bincount(self.piece_edge, weights=length, minlength=n_edges)
-        chord = np.zeros((n_edges, 2))
-        np.add.at(chord, self.piece_edge, b - a)
-        normal = np.stack([chord[:, 1], -chord[:, 0]], axis=1) / np.maximum(edge_length, 1e-300)[:, None]
-        p_edge = np.einsum("ij,ij->i", force, normal) / np.maximum(edge_length, 1e-300)   # the force on the solid is -f
-        p = np.zeros(self.n_nodes)
-        for end in (0, 1):
-            np.add.at(p, self.pieces[:, end], facing * p_edge[self.piece_edge])
-        p /= np.maximum(pieces_at, 1.0)
+    def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
+                  f_material: np.ndarray) -> ContactPressure:
+        """Normal pressure per node and the contact per pair of bodies (docs/contact.md, "Pressure
+        recovery"). Per edge facing the medium, the mean normal traction of the medium's material
+        response: the resultant of ``f_material`` on its midpoint and on its two vertices, a
+        vertex's force shared between its medium-facing edges in proportion to their deformed
+        lengths (so that the resultant is exact for a traction linear along the boundary, whatever
+        the edge lengths), over the edge's deformed length, normal to its chord; at a midpoint its
+        edge's value, at a vertex the length-weighted mean of its edges'. A pair's force sums the
+        whole medium force ``f`` (regularization included: what the reactions balance)."""
+        a, m, b = self.edge_nodes.T
+        facing = self.edge_faces_medium
+        length = np.where(facing, np.linalg.norm(x[m] - x[a], axis=1) + np.linalg.norm(x[b] - x[m], axis=1), 0.0)
+        ends = np.concatenate([a, b])
+        length_at = np.bincount(ends, np.tile(length, 2), self.n_nodes)      # medium-facing length at a vertex
+        resultant = f_material[m].copy()
+        for v in (a, b):
+            resultant += np.divide(length, length_at[v], out=np.zeros_like(length), where=facing)[:, None] * f_material[v]
+        chord = x[b] - x[a]
+        # the force on the solid is -f: compressive pressure f·n / length, n the chord's outward unit normal
+        p_edge = np.divide(resultant[:, 0] * chord[:, 1] - resultant[:, 1] * chord[:, 0],
+                           np.linalg.norm(chord, axis=1) * length, out=np.zeros_like(length), where=facing)
+        p = np.divide(np.bincount(ends, np.tile(length * p_edge, 2), self.n_nodes), length_at,
+                      out=np.zeros(self.n_nodes), where=length_at > 0.0)
+        p[m[facing]] = p_edge[facing]
+        piece_length = np.linalg.norm(x[self.pieces[:, 1]] - x[self.pieces[:, 0]], axis=1)
         partner_body = np.where(partner >= 0, self.piece_body[np.maximum(partner, 0)], -1)
         pairs, zone = [], np.zeros(self.n_nodes, dtype=bool)
         for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
@@ -324,9 +335,21 @@ class SolidBoundary:
             in_zone = mine[self.pieces[:, 0]] & mine[self.pieces[:, 1]]
             region = int(self.node_tag[np.argmax(on)])
             pairs.append(ContactPair(body, other, region, int(self.piece_tag[np.argmax(self.piece_body == other)]),
-                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(length[in_zone].sum()),
+                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_length[in_zone].sum()),
                                      float(g[on].min(initial=math.inf))))
-        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, pairs)
+        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, self._surfaces(partner_body), pairs)
+
+    def _surfaces(self, partner_body: np.ndarray) -> np.ndarray:
+        """:attr:`ContactPressure.surface` of every node, from the body each node faces (n,) (-1: none)."""
+        pair = np.where(partner_body >= 0, self.node_body * (self.n_bodies + 1) + partner_body, -1)
+        i, j = self.pieces.T
+        joined = (pair[i] == pair[j]) & (pair[i] >= 0)
+        graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(self.n_nodes,) * 2)
+        _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
+        surface = np.full(self.n_nodes, -1, dtype=np.int64)
+        facing = pair >= 0
+        surface[facing] = np.unique(label[facing], return_inverse=True)[1]
+        return surface
 
     def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
         """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``

@@ -267,8 +267,11 @@ class Discretization(abc.ABC):
         on their owners), constraints not applied, with the state's diagnostics (collective)."""
 
     @abc.abstractmethod
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
-        """b = ∂W_medium/∂u, the internal force of the third-medium regions alone, at x."""
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
+        """b = ∂W_medium/∂u, the internal force of the third-medium regions alone, at x (ghost
+        contributions accumulated on their owners; collective). With ``regularization=False``, the
+        force of their material response alone (:meth:`Energy.unregularized_params`): the force
+        whose normal traction on the solids is the contact pressure (docs/contact.md)."""
 
     @abc.abstractmethod
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:

@@ -164,6 +164,13 @@ class Energy:
         """
         raise NotImplementedError
 
+    def unregularized_params(self) -> dict[str, float]:
+        """Parameter values that leave the energy's numerical regularization out: Ψ is then the
+        material's own response, whose forces on the solids are the contact pressure
+        (docs/contact.md, "Pressure recovery"). An energy without a regularization it can name
+        (a solid, a :class:`UserEnergy`) is all material response: its own values."""
+        return dict(self.params)
+
     def validate(self, values: Mapping[str, float]) -> dict[str, float]:
         """Check a full set of parameter values; return them as floats in :attr:`param_names` order.
 
@@ -267,6 +274,11 @@ class ThirdMedium(Energy):
         s = ufl.exp(-p["beta"] * J(F)) if self.scaled else 1
         psi_r = REGULARIZATIONS[self.regularization](F, G)
         return p["gamma"] * (neo_hookean(F, p["K"], p["mu"]) + p["alpha_r"] * s * psi_r)
+
+    def unregularized_params(self) -> dict[str, float]:
+        """Its values with alpha_r = 0: Psi = gamma [K/2 (ln J)^2 + mu/2 (J^(-2/3) tr C - 3)], the
+        neo-Hookean part of Eq. 3."""
+        return {**self.params, "alpha_r": 0.0}
 
     @property
     def name(self) -> str:

@@ -285,13 +285,20 @@ class LagrangeDiscretization(Discretization):
                                  + eta / h_e * (psi(F_avg, jump, c) - psi(F_avg, 0 * jump, c))) * dS(t))
         return sum(energy_terms)
 
+<<<<<<< HEAD
     def _set_state(self, x: PETSc.Vec) -> None:
         """u <- x (ghosts included), the region constants <- the energies' parameters and the
         energy terms' constants <- the terms' parameters."""
+=======
+    def _set_state(self, x: PETSc.Vec, regularization: bool = True) -> None:
+        """u <- x (ghosts included) and the region constants <- the energies' parameters (those of
+        :meth:`Energy.unregularized_params` when ``regularization`` is False)."""
+>>>>>>> contact-pressure
         with x.localForm() as xl:
             self.u.x.array[:] = xl.array_r
         for tag, energy in self.materials.items():
-            for name, value in energy.validate(energy.params).items():
+            params = energy.params if regularization else energy.unregularized_params()
+            for name, value in energy.validate(params).items():
                 self._constants[tag][name].value = value
         for term, constants in self._terms:
             for name, value in term.energy.validate(term.params).items():
@@ -417,15 +424,17 @@ class LagrangeDiscretization(Discretization):
                             *gather_count(self.comm, folded, self._cell_input_index[self._owned_cells]),
                             gather_count(self.comm, kinked, self._cell_input_index[self._owned_cells])[0])
 
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
-        """b = ∂Π_medium/∂u, the internal force of the third-medium regions alone, at x."""
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
+        """b = ∂Π_medium/∂u, the internal force of the third-medium regions alone, at x; without
+        their regularization when ``regularization`` is False (the same form, the parameters of
+        :meth:`Energy.unregularized_params`)."""
         with b.localForm() as bl:
             bl.set(0.0)
         if self._medium_ufl is None:
             return
         if self._medium_form is None:
             self._medium_form = dolfinx.fem.form(self._medium_ufl)
-        self._set_state(x)
+        self._set_state(x, regularization)
         dolfinx.fem.petsc.assemble_vector(b, self._medium_form)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 

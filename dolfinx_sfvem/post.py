@@ -92,8 +92,9 @@ def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mappin
 
 
 def plot_contact_pressure(path: pathlib.Path, pressure, title: str = "") -> None:
-    """PNG of the normal contact pressure along each body's surface facing another body, against
-    the position along the contact zone (its principal direction in the deformed configuration).
+    """PNG of the normal contact pressure along each body's surfaces facing another body, one line
+    per surface, against the position along the pair's contact zone (its principal direction in
+    the deformed configuration).
 
     Parameters
     ----------
@@ -113,9 +114,13 @@ def plot_contact_pressure(path: pathlib.Path, pressure, title: str = "") -> None
         centre = x[zone].mean(axis=0)
         direction = np.linalg.svd(x[zone] - centre, full_matrices=False)[2][0] if zone.sum() > 1 else np.array([1.0, 0.0])
         s = (x - centre) @ direction
-        order = np.argsort(s)
-        ax.plot(s[order], pressure.pressure[on][order], ".-", ms=3,
-                label=f"region {pair.region} (body {pair.body}) against body {pair.partner_body}")
+        surfaces = np.unique(pressure.surface[on])
+        for k in surfaces:
+            mine = pressure.surface[on] == k
+            order = np.argsort(s[mine])
+            label = f"region {pair.region} (body {pair.body}) against body {pair.partner_body}"
+            ax.plot(s[mine][order], pressure.pressure[on][mine][order], ".-", ms=3,
+                    label=label + (f", surface {k}" if surfaces.size > 1 else ""))
     ax.set_xlabel("position along the contact zone")
     ax.set_ylabel("normal pressure of the medium")
     ax.set_title(title)

@@ -405,7 +405,8 @@ class ContactProblem:
         return self.boundary.gap_of_state(self.comm, *self.disc.get_state(self.x))
 
     def contact_pressure(self) -> ContactPressure:
-        """Normal pressure of the medium on the solids at every boundary node, and per pair of
+        """Normal pressure of the medium on the solids at every boundary node (from the medium's
+        material response, its regularization left out; docs/contact.md), and per pair of
         bodies facing each other across the medium the total contact force, the largest pressure,
         the contact zone's length and the smallest gap, at the current state (collective; the
         result on every rank; :mod:`~dolfinx_sfvem.contact`)."""
@@ -413,12 +414,14 @@ class ContactProblem:
 
     def contact_state(self) -> tuple[Gap, ContactPressure]:
         """:meth:`contact_gap` and :meth:`contact_pressure` from one gather (collective)."""
-        f = self.disc.create_vector()
+        f, f_material = self.disc.create_vector(), self.disc.create_vector()
         self.disc.medium_force(self.x, f)
-        u = self.boundary.gather(self.comm, *self.disc.get_state(self.x))
-        forces = self.boundary.gather(self.comm, *self.disc.get_state(f))
+        self.disc.medium_force(self.x, f_material, regularization=False)
+        u, forces, material = (self.boundary.gather(self.comm, *self.disc.get_state(v)) for v in (self.x, f, f_material))
         f.destroy()
-        return self.comm.bcast(self.boundary.gap_and_pressure(u, forces) if self.comm.rank == 0 else None, root=0)
+        f_material.destroy()
+        return self.comm.bcast(self.boundary.gap_and_pressure(u, forces, material) if self.comm.rank == 0 else None,
+                               root=0)
 
     def displacement_at(self, points: npt.ArrayLike) -> np.ndarray:
         """Displacement (n, 2) at reference ``points`` (n, 2) on every rank (collective): the SFVEM's

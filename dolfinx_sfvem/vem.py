@@ -135,13 +135,17 @@ class SFVEMDiscretization(Discretization):
                                              np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         return self._gather_info(stats, folded, kinked)
 
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
-        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x."""
-        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium])
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
+        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x; without
+        their regularization when ``regularization`` is False (the same kernels, the parameters of
+        :meth:`Energy.unregularized_params`)."""
+        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium], regularization)
 
-    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region]) -> np.ndarray:
-        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated; returns this rank's
-        [energy, min J, local polygon of min J]."""
+    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region],
+                        regularization: bool = True) -> np.ndarray:
+        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated, their regularization
+        left out when ``regularization`` is False; returns this rank's [energy, min J, local polygon
+        of min J]."""
         stats = np.array([0.0, np.inf, -1.0])
         with x.localForm() as xl, b.localForm() as bl:
             bl.set(0.0)
@@ -150,7 +154,7 @@ class SFVEMDiscretization(Discretization):
             for reg in regions:
                 k = reg.kernels
                 P_at, T_at = _residual_at(k)
-                c = k.pack_constants(reg.params)
+                c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
                 residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
                               self._tables, u, R, stats)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)

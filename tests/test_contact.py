@@ -229,3 +229,134 @@ def test_contact_pressure_through_a_flat_layer(method):
     assert pressure.size == 9 and np.all(np.abs(pressure / upper.force[1] - 1) < 0.05)
     assert contact.zone[surface].all() and not contact.zone[(contact.body == upper.body) & (contact.X[:, 1] > 2.0)].any()
     assert result.steps[-1]["contact"][0]["force"] == pytest.approx(list(lower.force))
+
+
+# --------------------------------------------------------------------------- pressure recovery
+def layer_on_block(mesh: str) -> sf.PolygonMesh:
+    """Block [0,1]x[0,1] (SOLID) under a medium layer [0,1]x[1,1.2], their interface cut into
+    edges of unequal lengths: ``"hanging"`` 3 solid quads against 4 medium quads (sub-edges 1/4,
+    1/12, 1/6, 1/6, 1/12, 1/4 between hanging nodes), ``"graded"`` one graded grid of rectangles
+    (edges 0.1, 0.35, 0.15, 0.4; conforming, so the Q2 FEM can use it)."""
+    if mesh == "hanging":
+        return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 3, 3, tag=SOLID),
+                              sf.meshes.quad_rectangle(1.0, 0.2, 4, 1, origin=(0.0, 1.0), tag=MEDIUM))
+    xs, ys = np.array([0.0, 0.1, 0.45, 0.6, 1.0]), np.array([0.0, 0.5, 1.0, 1.2])
+    points = np.array([(x, y) for y in ys for x in xs])
+    n = xs.size
+    cells = [[j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i]
+             for j in range(ys.size - 1) for i in range(n - 1)]
+    tags = [SOLID if ys[j] < 1.0 else MEDIUM for j in range(ys.size - 1) for i in range(n - 1)]
+    return sf.PolygonMesh(points, cells, tags)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("method, mesh", [("vem", "hanging"), ("vem", "graded"), ("fem", "graded")])
+def test_pressure_of_a_uniformly_compressed_layer(method, mesh):
+    """Everything compressed homogeneously, F = diag(1, lambda): the medium's first Piola stress is
+    uniform, and its normal traction on the block's top, p = -P_yy = -dPsi/dlambda of Psi(lambda) =
+    gamma [mu/2 (lambda^(-2/3) (2 + lambda^2) - 3) + K/2 ln(lambda)^2] (Eq. 3; G = 0, so the
+    regularization adds nothing), is recovered at every node of the top, whatever its edge lengths."""
+    lam, gamma, mu_m, K_m = 0.6, 1e-2, MU, 0.5
+    options = {"fem_mesh": layer_on_block(mesh)} if method == "fem" else {}
+    p = sf.ContactProblem(layer_on_block(mesh), {SOLID: sf.Hyperelastic(K=K, mu=MU),
+                                                  MEDIUM: medium(gamma=gamma, K=K_m)}, method=method, verbose=False,
+                          **options)
+    p.set_displacement(uy=lambda x: (lam - 1.0) * x[1])
+    P_yy = gamma * (mu_m / 2 * (-2 / 3 * lam ** (-5 / 3) * (2 + lam ** 2) + 2 * lam ** (1 / 3)) + K_m * np.log(lam) / lam)
+    contact = p.contact_pressure()
+    top = np.isclose(contact.X[:, 1], 1.0)
+    assert top.sum() == {"hanging": 13, "graded": 9}[mesh]
+    assert contact.pressure[top] == pytest.approx(np.full(top.sum(), -P_yy), rel=1e-9)
+    assert np.all(contact.pressure[~top] == 0.0)         # no other solid edge faces the medium
+
+
+def neo_hookean_medium(F, G, gamma, mu, K):
+    return gamma * sf.energy.neo_hookean(F, K, mu)
+
+
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_medium_force_without_regularization_is_its_neo_hookean_part(method):
+    """On a curved state (G != 0), the medium force without regularization equals that of the
+    medium's neo-Hookean part written as an energy of its own, and the regularization's force
+    is not zero there."""
+    def problem(energy):
+        options = {"fem_mesh": two_blocks()} if method == "fem" else {}
+        p = sf.ContactProblem(two_blocks(), {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: energy,
+                                             OTHER: sf.Hyperelastic(K=K, mu=MU)}, method=method, verbose=False,
+                              **options)
+        p.set_displacement(ux=lambda x: 0.05 * x[0] * x[1], uy=lambda x: -0.1 * (x[1] - 1.0) ** 2 * (x[0] + 1.0))
+        return p
+
+    def force(p, regularization=True):
+        f = p.disc.create_vector()
+        p.disc.medium_force(p.x, f, regularization)
+        return f.getArray().copy()
+    full = problem(medium(K=0.3))
+    material = problem(sf.UserEnergy(neo_hookean_medium, uses_gradient=False, medium=True, gamma=1e-5, mu=MU, K=0.3))
+    expected = force(material)
+    assert np.abs(expected).max() > 0.0
+    assert force(full, regularization=False) == pytest.approx(expected, rel=1e-10, abs=1e-12 * np.abs(expected).max())
+    assert np.abs(force(full) - expected).max() > 1e-3 * np.abs(expected).max()
+
+
+@pytest.fixture(scope="module")
+def cbox_end_state() -> sf.ContactProblem:
+    """The paper's C-box (u_y = -0.5, gamma = 1e-5, alpha_r = 1, rotation; h = 0.05, 25 steps) at
+    the full load: the upper beam's tip corner pressed into the lower beam (docs/contact.md)."""
+    box = sf.meshes.cbox(h_solid=0.05)
+    problem = sf.ContactProblem(box.mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: medium()}, verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0))
+    problem.prescribe(lambda x: np.hypot(x[0] - 1.0, x[1] - 0.5) < 1e-10, uy=-0.5, name="load")
+    assert problem.solve(steps=25).converged
+    return problem
+
+
+def gathered(problem: sf.ContactProblem, v) -> np.ndarray:
+    """The values of ``v`` at the solids' boundary nodes, in :attr:`SolidBoundary.node_keys` order."""
+    return problem.boundary.gather(problem.comm, *problem.disc.get_state(v))
+
+
+def medium_forces(problem: sf.ContactProblem, regularization: bool = True) -> np.ndarray:
+    f = problem.disc.create_vector()
+    problem.disc.medium_force(problem.x, f, regularization)
+    return gathered(problem, f)
+
+
+def test_cbox_pressure_is_small_away_from_contact_and_nowhere_strongly_tensile(cbox_end_state):
+    """Away from the contact (reference x < 0.5: the beams' inner halves, the C's inner corners),
+    the pressure stays below 1 % of its peak, and it is nowhere tensile beyond 5 % of it. The
+    regularization's nodal forces recovered in the same way would give a sawtooth of more than
+    10 % of the peak there and tensile values at the inner corner (0.1, 0.4)."""
+    problem = cbox_end_state
+    contact = problem.contact_pressure()
+    (pair,) = contact.pairs
+    on = contact.partner_body >= 0
+    away = on & (contact.X[:, 0] < 0.5)
+    peak = contact.pressure[on].max()
+    assert peak == pair.max_pressure and contact.X[on][np.argmax(contact.pressure[on]), 0] > 0.9
+    assert np.abs(contact.pressure[away]).max() < 0.01 * peak
+    assert contact.pressure.min() > -0.05 * peak
+    assert sorted(np.unique(contact.surface[on])) == [0, 1]      # the two beams
+    whole = medium_forces(problem)
+    regularization = whole - medium_forces(problem, regularization=False)
+    _, of_regularization = problem.boundary.gap_and_pressure(gathered(problem, problem.x), whole, regularization)
+    corner = np.hypot(*(contact.X - (0.1, 0.4)).T) < 1e-12
+    assert np.abs(of_regularization.pressure[away]).max() > 0.1 * peak
+    assert of_regularization.pressure[corner] < -0.1 * peak
+
+
+def test_cbox_pair_force_is_the_whole_medium_force(cbox_end_state):
+    """The pair's force sums the medium's whole force (regularization included) over the pair's
+    nodes, not its material part's; the whole medium force on the body vanishes (the medium's
+    own nodes are in equilibrium and its energy is translation invariant), its material part's
+    does not."""
+    problem = cbox_end_state
+    contact = problem.contact_pressure()
+    (pair,) = contact.pairs
+    b = problem.boundary
+    whole, material = (b._in_node_order(medium_forces(problem, r)) for r in (True, False))
+    on = contact.partner_body >= 0
+    assert pair.force == pytest.approx(tuple(-whole[on].sum(axis=0)), rel=1e-12, abs=1e-18)
+    assert np.abs(np.array(pair.force) + material[on].sum(axis=0)).max() > 0.05 * np.abs(pair.force).max()
+    scale = np.abs(whole).sum()
+    assert np.abs(whole.sum(axis=0)).max() < 1e-6 * scale < np.abs(material.sum(axis=0)).max()
