@@ -48,6 +48,8 @@ import dolfinx.jit
 import dolfinx.la
 import dolfinx.mesh
 
+from .logs import quiet_compilers
+
 try:
     import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)
 except ImportError:
@@ -210,9 +212,19 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
     return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
+def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
+    """(2, 2) tensors constant in every cell (DG0)."""
+    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx 0.11
+        return dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
+    return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(2, 2))
+
+
 #: MPI tag of the messages DOLFINx 0.11 exchanges while it builds an index map (any tag works: the
-#: construction is collective and completes before it returns)
-_INDEX_MAP_TAG = 1
+#: construction is collective and completes before it returns); None: the constructor takes none
+#: (DOLFINx 0.5, whose five-argument constructor is another one). Decided from the signature, never
+#: by trying: a call that one overload takes on one rank and not on another (it depends on the
+#: arrays) would leave the ranks in different collectives.
+_INDEX_MAP_TAG = 1 if "tag: int" in (dolfinx.cpp.common.IndexMap.__init__.__doc__ or "") else None
 
 
 def create_index_map(comm: MPI.Comm, n_owned: int, ghosts: npt.NDArray[np.int64],
@@ -220,10 +232,7 @@ def create_index_map(comm: MPI.Comm, n_owned: int, ghosts: npt.NDArray[np.int64]
     """Index map of ``n_owned`` owned indices and the given ghosts (global indices, owner ranks)."""
     args = (comm, n_owned, np.ascontiguousarray(ghosts, dtype=np.int64),
             np.ascontiguousarray(ghost_owners, dtype=np.int32))
-    try:
-        return dolfinx.cpp.common.IndexMap(*args, _INDEX_MAP_TAG)
-    except TypeError:                   # DOLFINx 0.5 takes no tag
-        return dolfinx.cpp.common.IndexMap(*args)
+    return dolfinx.cpp.common.IndexMap(*args, *(() if _INDEX_MAP_TAG is None else (_INDEX_MAP_TAG,)))
 
 
 def _petsc_vector_function():
@@ -268,7 +277,8 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
         nopython code) and the compiled module (keep it alive as long as the function is used).
     """
     point = np.zeros((1, 2))
-    compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
+    with quiet_compilers():
+        compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
     tabulate = compiled.tabulate_tensor_float64
     prototype = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * len(module.ffi.typeof(tabulate).args))
     return prototype(int(module.ffi.cast("uintptr_t", tabulate))), module
@@ -441,7 +451,8 @@ class CompiledExpression:
     """A UFL expression compiled for evaluation at fixed reference points of the cells."""
 
     def __init__(self, expression: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64]):
-        self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
+        with quiet_compilers():
+            self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
         self._mesh_argument = (mesh,) if _EVAL_TAKES_MESH else ()
         self._n_points = points.shape[0]
 

@@ -409,3 +409,44 @@ def load_loop(polygons, dof_off, dofs, xE, hE, pin_off, Pi_nabla, q_off, x_q, w_
                     phi += m[b] * Pn[b, a]
                 F[dofs[d0 + a], 0] += w_q[q] * f_q[q, 0] * phi
                 F[dofs[d0 + a], 1] += w_q[q] * f_q[q, 1] * phi
+
+
+@numba.njit(cache=True)
+def first_piola_at(kernel, c, F_at, G_at, P_at, uses_gradient, polygon, x, dof_off, dofs, l, xE, hE, pim_off, Pi_m,
+                   u, F, P):
+    """First Piola stress P = ∂Ψ/∂F (Eq. 30) at the points ``x`` (n, 2) of the local polygons
+    ``polygon`` (n,), with F = I + Π⁰_l∇u and G its derivative there (Eqs. 43, 45), into P (n, 2, 2)
+    and F (n, 2, 2).
+
+    ``kernel`` is the residual kernel of the polygons' energy (output [Ψ, P(4), T(8)] or [Ψ, P]),
+    ``c`` its constants with the parameters packed."""
+    out = np.zeros(13)
+    scratch = kernel_scratch()
+    m, dm = _monomial_scratch(l)
+    for n in range(x.shape[0]):
+        e = polygon[n]
+        d0 = dof_off[e]
+        nd = dof_off[e + 1] - d0
+        ue = _gather(u, dofs, d0, nd)
+        dphi = np.empty((2, nd))
+        d2phi = np.empty((2, 2, nd))
+        _projected_derivatives(x[n], xE[e], hE[e], l[e], _polygon_block(Pi_m, pim_off, e, l[e], nd), m, dm,
+                               dphi, d2phi)
+        for i in range(2):
+            for j in range(2):
+                s = 0.0
+                for a in range(nd):
+                    s += ue[a, i] * dphi[j, a]
+                c[F_at + 2 * i + j] = s + (1.0 if i == j else 0.0)
+                if uses_gradient:
+                    for k in range(2):
+                        g = 0.0
+                        for a in range(nd):
+                            g += ue[a, i] * d2phi[j, k, a]
+                        c[G_at + 4 * i + 2 * j + k] = g
+        out[:] = 0.0
+        call_kernel(kernel, out, c, scratch)
+        for i in range(2):
+            for j in range(2):
+                P[n, i, j] = out[P_at + 2 * i + j]
+                F[n, i, j] = c[F_at + 2 * i + j]

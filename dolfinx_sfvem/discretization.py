@@ -397,5 +397,32 @@ class Discretization(abc.ABC):
         """The DOLFINx mesh of :meth:`output_function` (XDMF output)."""
 
     @abc.abstractmethod
+    def cell_tags(self):
+        """Region tag of every local cell of :attr:`dolfinx_mesh` (``dolfinx.mesh.MeshTags``)."""
+
+    @abc.abstractmethod
+    def cell_stress(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """F and the first Piola stress P = ∂Ψ/∂F (Eq. 30) of the region's energy, (n, 2, 2) each,
+        at the centre of every owned cell of :attr:`dolfinx_mesh` (ghosts of x current)."""
+
+    def stress(self, x: PETSc.Vec, kind: str = "cauchy"):
+        """The stress as a ``dolfinx.fem.Function``, constant in every cell of :attr:`dolfinx_mesh`
+        (DG0, shape (2, 2)): ``"cauchy"`` σ = P Fᵀ / J (the in-plane components) or ``"piola"``
+        P (the first Piola-Kirchhoff stress), at the cell centres (:meth:`cell_stress`)."""
+        import dolfinx.fem
+        from . import _compat
+        if kind not in ("cauchy", "piola"):
+            raise ValueError(f"stress kind {kind!r}: use 'cauchy' or 'piola'")
+        F, P = self.cell_stress(x)
+        if kind == "cauchy":
+            P = np.einsum("nij,nkj->nik", P, F) / np.linalg.det(F)[:, None, None]
+        V = _compat.cell_tensor_space(self.dolfinx_mesh)
+        stress = dolfinx.fem.Function(V, name="sigma" if kind == "cauchy" else "P")
+        dofs = _compat.cell_dofs(V)[:P.shape[0], 0]
+        stress.x.array.reshape(-1, 4)[dofs] = P.reshape(-1, 4)
+        stress.x.scatter_forward()
+        return stress
+
+    @abc.abstractmethod
     def describe(self) -> dict:
         """Mesh facts for summary.json (JSON-serialisable)."""

@@ -33,6 +33,7 @@ element-wise regularization. Measurements: docs/fem-reference.md.
 """
 from __future__ import annotations
 
+import logging
 import typing
 
 import numpy as np
@@ -49,7 +50,10 @@ from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, ch
 from .energy import Energy
 from .polygon_mesh import PolygonMesh
 from .injectivity import folded_elements, gather_count
+from .logs import quiet_compilers, say
 from .remesh import matched_triangulation, sfvem_unknowns, triangulate
+
+log = logging.getLogger(__name__)
 
 #: default quadrature degree of the energy, residual and tangent (see the module docstring)
 QUADRATURE_DEGREE = 4
@@ -62,6 +66,12 @@ ERROR_QUADRATURE_DEGREE = 8
 _EDGE_VERTICES = {3: ((1, 2), (0, 2), (0, 1)), 4: ((0, 1), (0, 2), (1, 3), (2, 3))}
 #: vertex count -> reference coordinates of the cell's vertices (DOLFINx's local numbering)
 _REFERENCE_VERTICES = {3: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), 4: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0))}
+
+
+def _form(form: ufl.Form) -> dolfinx.fem.Form:
+    """``dolfinx.fem.form`` without the compiler's chatter (:func:`~dolfinx_sfvem.logs.quiet_compilers`)."""
+    with quiet_compilers():
+        return dolfinx.fem.form(form)
 
 
 def _boundary_loop(n_vertices: int) -> np.ndarray:
@@ -228,9 +238,9 @@ class LagrangeDiscretization(Discretization):
         if self.jump_penalty is not None:
             Pi = Pi + self._jump_energy(self.jump_penalty)
         residual = ufl.derivative(Pi, u, v)
-        self._energy_form = dolfinx.fem.form(Pi)
-        self._residual_form = dolfinx.fem.form(residual)
-        self._tangent_form = dolfinx.fem.form(ufl.derivative(residual, u, du))
+        self._energy_form = _form(Pi)
+        self._residual_form = _form(residual)
+        self._tangent_form = _form(ufl.derivative(residual, u, du))
         points, _ = _compat.reference_quadrature(mesh, q)
         n_vertices = _compat.cell_geometry_nodes(mesh).shape[1]
         self._n_quadrature_points = points.shape[0]
@@ -247,6 +257,7 @@ class LagrangeDiscretization(Discretization):
         self.element_loops = (self._loop_offsets, self._loop, self._cell_input_index[self._owned_cells].astype(np.int64))
         self._error_terms = None
         self._term_forms: dict[int, tuple] = {}       # the terms' own forms (:meth:`term_force`)
+        self._stress_expressions = None                # F and P per region (:meth:`cell_stress`)
 
     def _jump_energy(self, eta: float) -> ufl.Form:
         """C0 interior-penalty energy on the interior facets e of each gradient region:
@@ -319,8 +330,8 @@ class LagrangeDiscretization(Discretization):
             unit = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0)) for name in term.params}
             F = ufl.variable(ufl.Identity(2) + ufl.grad(self.u))
             energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self.dx(term.tag)
-            self._term_forms[index] = (unit, dolfinx.fem.form(energy),
-                                       dolfinx.fem.form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
+            self._term_forms[index] = (unit, _form(energy),
+                                       _form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
         unit, energy_form, force_form = self._term_forms[index]
         for name, value in term.energy.validate(params if params is not None else term.params).items():
             unit[name].value = value
@@ -374,13 +385,12 @@ class LagrangeDiscretization(Discretization):
         cell_tags = _compat.create_cell_tags(dmesh, tags[_compat.original_cell_index(dmesh)])
         disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
                    jump_penalty=jump_penalty)
-        if verbose and comm.rank == 0:
-            kind = {3: "P2 FEM", 4: "Q2 FEM"}[cells.shape[1]]
-            origin = "own mesh; SFVEM:" if fem_mesh is not None else \
-                ("chosen to match" if fem_h is None else "given; SFVEM would have")
-            print(f"{kind}: {cells.shape[0]} cells, h = {h:.4g} ({origin} {sfvem_unknowns(mesh)} SFVEM "
-                  f"unknowns), {disc.num_dofs_global} unknowns on {comm.size} rank(s), quadrature degree "
-                  f"{disc.quadrature_degree}", flush=True)
+        kind = {3: "P2 FEM", 4: "Q2 FEM"}[cells.shape[1]]
+        origin = "own mesh; SFVEM:" if fem_mesh is not None else \
+            ("chosen to match" if fem_h is None else "given; SFVEM would have")
+        say(log, f"{kind}: {cells.shape[0]} cells, h = {h:.4g} ({origin} {sfvem_unknowns(mesh)} SFVEM "
+                 f"unknowns), {disc.num_dofs_global} unknowns on {comm.size} rank(s), quadrature degree "
+                 f"{disc.quadrature_degree}", verbose, comm)
         return disc
 
     # ------------------------------------------------------------------ PETSc objects
@@ -428,7 +438,7 @@ class LagrangeDiscretization(Discretization):
         if self._medium_ufl is None:
             return
         if self._medium_form is None:
-            self._medium_form = dolfinx.fem.form(self._medium_ufl)
+            self._medium_form = _form(self._medium_ufl)
         self._set_state(x, regularization)
         dolfinx.fem.petsc.assemble_vector(b, self._medium_form)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -454,7 +464,7 @@ class LagrangeDiscretization(Discretization):
         b = self.create_vector()
         with b.localForm() as bl:
             bl.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, dolfinx.fem.form(ufl.inner(f_h, ufl.TestFunction(self.V)) * self.dx))
+        dolfinx.fem.petsc.assemble_vector(b, _form(ufl.inner(f_h, ufl.TestFunction(self.V)) * self.dx))
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return b
 
@@ -557,6 +567,30 @@ class LagrangeDiscretization(Discretization):
     @property
     def dolfinx_mesh(self) -> dolfinx.mesh.Mesh:
         return self.mesh
+
+    def cell_tags(self):
+        """The region tags of the cells (``dolfinx.mesh.MeshTags``)."""
+        return self._cell_tags
+
+    def cell_stress(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """F and P = ∂ψ/∂F of every owned cell's region at the cell's centre."""
+        if self._stress_expressions is None:
+            n_vertices = _compat.cell_geometry_nodes(self.mesh).shape[1]
+            centre = np.array(_REFERENCE_VERTICES[n_vertices]).mean(axis=0, keepdims=True)
+            F = ufl.variable(ufl.Identity(2) + ufl.grad(self.u))
+            G = ufl.grad(ufl.grad(self.u))
+            self._stress_expressions = {
+                tag: _compat.CompiledExpression(ufl.as_vector([F[i, j] for i in (0, 1) for j in (0, 1)] + [
+                    P[i, j] for P in [ufl.diff(energy.psi(F, G, self._constants[tag]), F)] for i in (0, 1)
+                    for j in (0, 1)]), self.mesh, centre)
+                for tag, energy in self.materials.items()}
+        self._set_state(x)
+        F, P = np.zeros((self._owned_cells.size, 2, 2)), np.zeros((self._owned_cells.size, 2, 2))
+        for tag, expression in self._stress_expressions.items():
+            cells = self._owned_cells[self.cell_tag[self._owned_cells] == tag]
+            values = expression(cells).reshape(-1, 8)
+            F[cells], P[cells] = values[:, :4].reshape(-1, 2, 2), values[:, 4:].reshape(-1, 2, 2)
+        return F, P
 
     def describe(self) -> dict:
         """Mesh facts for summary.json."""

@@ -22,6 +22,7 @@ import dataclasses
 import itertools
 import logging
 import pathlib
+import signal
 import time
 import typing
 from dataclasses import asdict, dataclass
@@ -33,6 +34,7 @@ from .adaptivity import Adaptivity
 from .contact import ContactPressure, Gap
 from .equilibrium import Equilibrium
 from .interrupt import StopRequest
+from .logs import say
 from .loads import VectorLoad
 from .run_output import RunWriter, progress_line, read_checkpoint
 from .run_summary import STOPPED_BY_SIGNAL, StepRecord
@@ -154,7 +156,8 @@ class LoadPath:
                  petsc_options: typing.Mapping[str, typing.Any] | None = None,
                  observers: typing.Mapping[str, Observer] | None = None, raise_on_failure: bool = False,
                  resume: bool = False, from_current_state: bool = False, until: float = 1.0,
-                 adapt: Adaptivity | None = None, pressure_at: typing.Iterable[float] = ()):
+                 adapt: Adaptivity | None = None, pressure_at: typing.Iterable[float] = (),
+                 handle_signals: bool | None = None):
         self.problem = problem
         self.control = control
         self.out = pathlib.Path(out) if out is not None else None
@@ -166,6 +169,7 @@ class LoadPath:
         self.until = until
         self.adapt = adapt
         self.pressure_at = tuple(pressure_at)
+        self.handle_signals = handle_signals
         self.earlier_wall_time = 0.0          # of the stopped run a resumed path continues
         self.records: list[dict] = []
 
@@ -190,10 +194,11 @@ class LoadPath:
         refined, transferred = 0, False        # polygons split after the last converged step; state transferred
         undo = None                            # mesh and state before the last adaptive refinement
         adapt = self.adapt
-        with StopRequest() as stop:
+        with StopRequest(self.handle_signals) as stop:
             try:
                 while True:
                     solver = StepSolver(p, self.petsc_options)
+                    converged_x = p.x.copy()             # the state to go back to on KeyboardInterrupt
                     if not transferred:
                         self._check_initial_state()      # a transferred state is checked by re-balancing
                     path = [self._rebalance(solver)] if rebalance else []
@@ -203,6 +208,7 @@ class LoadPath:
                         self.records.append(asdict(rec))
                         if attempt.converged:
                             p.load = attempt.load
+                            p.x.copy(converged_x)
                             self._progress(rec)
                             if writer is not None:
                                 writer.step(self.records, self._wall(), solver.contact[1])
@@ -211,10 +217,10 @@ class LoadPath:
                             if adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):
                                 refined, undo = self._adapt(adapt)
                                 self.records[-1]["refined_polygons"] = refined
-                        elif p.verbose and p.comm.rank == 0:
+                        else:
                             then = "re-balancing failed" if attempt.rebalancing else "cutting the increment"
-                            print(f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
-                                  f"{rec.newton_iterations} its); {then}", flush=True)
+                            say(log, f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
+                                     f"{rec.newton_iterations} its); {then}", p.verbose, p.comm)
                         if not attempt.converged and attempt.rebalancing:
                             if undo is None:
                                 raise SolveFailed(f"re-balancing at load factor {p.load:.6g} failed "
@@ -224,6 +230,7 @@ class LoadPath:
                         if refined or stop.requested(p.comm):
                             break
                     solver.destroy()
+                    converged_x.destroy()
                     if not refined:
                         break
                     if writer is not None:
@@ -237,6 +244,12 @@ class LoadPath:
                 if self.raise_on_failure:
                     self._finish(writer, message)
                     raise
+            except KeyboardInterrupt:
+                converged_x.copy(p.x)
+                p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal.SIGINT} (KeyboardInterrupt) at load factor "
+                                     f"{p.load:.6g}")
+                raise
         signalled = stop.requested(p.comm)
         if signalled:
             message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {p.load:.6g}"
@@ -293,9 +306,8 @@ class LoadPath:
         kept as it was, nothing is lost (collective)."""
         p = self.problem
         self.records[-1]["failure"] += "; refinement undone, adaptivity off for the rest of the path"
-        if p.verbose and p.comm.rank == 0:
-            print(f"  re-balancing the refined mesh at load {p.load:.5g} failed: back to the mesh before "
-                  "(adaptivity off for the rest of the path)", flush=True)
+        say(log, f"  re-balancing the refined mesh at load {p.load:.5g} failed: back to the mesh before "
+                 "(adaptivity off for the rest of the path)", p.verbose, p.comm)
         p.rebuild(mesh, state)
         last = next(r for r in reversed(self.records) if r["converged"])
         last["refined_polygons"] = 0
@@ -310,9 +322,8 @@ class LoadPath:
         before = (p.mesh, p.gathered_state())
         p.move_to(refinement)
         adapt.refined(refinement)
-        if p.verbose and p.comm.rank == 0:
-            print(f"  adapt at load {p.load:.5g}: {refinement.describe()}, {p.disc.num_dofs_global} unknowns",
-                  flush=True)
+        say(log, f"  adapt at load {p.load:.5g}: {refinement.describe()}, {p.disc.num_dofs_global} unknowns",
+            p.verbose, p.comm)
         return int(refinement.selected.sum()), before
 
     # ------------------------------------------------------------------ records
@@ -367,8 +378,8 @@ class LoadPath:
         p.load = self.control.load
         self.earlier_wall_time = saved.wall_time_s
         records = [r for r in saved.records if r["load"] <= self.control.load + 1e-14]
-        if p.comm.rank == 0 and p.verbose:
-            print(f"resuming from load factor {self.control.load:.6g} after {len(records)} converged steps", flush=True)
+        say(log, f"resuming from load factor {self.control.load:.6g} after {len(records)} converged steps",
+            p.verbose, p.comm)
         return records
 
     def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
@@ -395,16 +406,14 @@ class LoadPath:
         summary = self.summary(self.records, wall, converged, message)
         if writer is not None:
             writer.finish(summary, p.point_displacements(), p.contact_pressure())
-        if message and p.comm.rank == 0:
-            print(f"run stopped: {message}", flush=True)
+        if message:
+            say(log, f"run stopped: {message}", True, p.comm)
         return Result(converged, p.load, [r for r in self.records if r["converged"]], self.records, wall, summary,
                       message)
 
     def _progress(self, rec: StepRecord) -> None:
         """The progress line of a converged step (:func:`~dolfinx_sfvem.run_output.progress_line`)."""
-        p = self.problem
-        if p.verbose and p.comm.rank == 0:
-            print(progress_line(rec), flush=True)
+        say(log, progress_line(rec), self.problem.verbose, self.problem.comm)
 
 
 class _Relaxation:

@@ -357,8 +357,9 @@ class PointForce(Load):
         node = point_node(disc, self.point, self.name)
         vector = disc.create_vector()
         vector.set(0.0)
+        values = vector.getArray()        # on every rank: PETSc's cached norms then change on all alike
         if node is not None and node < disc.n_owned_nodes:
-            vector.getArray()[2 * node:2 * node + 2] = self.f
+            values[2 * node:2 * node + 2] = self.f
         return VectorLoad(self.name, disc, vector, float(np.linalg.norm(self.f)))
 
     def describe(self) -> dict[str, typing.Any]:

@@ -392,6 +392,26 @@ class ContactProblem:
             b.destroy()
         return out
 
+    def displacement(self):
+        """The displacement as a ``dolfinx.fem.Function`` (a new one at every call): P2 on the
+        quadrature sub-triangles of the polygons for the SFVEM (vertex and edge-midpoint values
+        are the SFVEM's, the others those of Π^∇_2 u, Eq. 36), the FEM's own P2/Q2 function
+        (collective)."""
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self.disc.output_function(self.x)
+
+    def stress(self, kind: str = "cauchy"):
+        """The stress of the current state as a ``dolfinx.fem.Function`` on the mesh of
+        :meth:`displacement`, constant per cell: ``"cauchy"`` (σ, in-plane components) or
+        ``"piola"`` (first Piola-Kirchhoff P = ∂Ψ/∂F, Eq. 30) (collective)."""
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self.disc.stress(self.x, kind)
+
+    def region_tags(self):
+        """The region tag of every cell of the mesh of :meth:`displacement`, as
+        ``dolfinx.mesh.MeshTags`` (e.g. for ``ufl.Measure("dx", subdomain_data=...)``)."""
+        return self.disc.cell_tags()
+
     def max_displacement(self) -> float:
         """Largest nodal displacement magnitude max |u| over all ranks (collective)."""
         with self.x.localForm() as xl:
@@ -493,7 +513,7 @@ class ContactProblem:
               observers: typing.Mapping[str, Observer] | None = None,
               raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
               until: float = 1.0, adapt: Adaptivity | None = None,
-              pressure_at: typing.Iterable[float] = ()) -> Result:
+              pressure_at: typing.Iterable[float] = (), handle_signals: bool | None = None) -> Result:
         """Follow the load path from load factor 0 (or the current one) to ``until``.
 
         Prescribed displacements and loads are ramped together by the load factor λ. The
@@ -545,6 +565,11 @@ class ContactProblem:
             Load factors at which ``out`` gets a plot of the contact pressure along the solids'
             boundaries (``contact_pressure_<load>.png``, at the first converged step reaching each);
             the last state's is always written (``contact_pressure.png``).
+        handle_signals
+            Ctrl-C and SIGTERM stop the path after the current step (a second Ctrl-C interrupts
+            at once); None (default): in a script's main thread, not in a Jupyter kernel, where
+            Ctrl-C interrupts at once (:mod:`~dolfinx_sfvem.interrupt`). An interrupted path keeps
+            its converged steps: the state is put back to the last one and the outputs written.
         """
         if self.solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
@@ -566,7 +591,7 @@ class ContactProblem:
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,
-                        until=until, adapt=adapt, pressure_at=pressure_at).run()
+                        until=until, adapt=adapt, pressure_at=pressure_at, handle_signals=handle_signals).run()
 
     def describe(self) -> dict:
         """The problem's identity for summary.json: ``method``, ``dofs``, ``discretization`` (the

@@ -8,6 +8,7 @@ consistent directory that ``solve(..., resume=True)`` continues (docs/architectu
 from __future__ import annotations
 
 import json
+import logging
 import pathlib
 import typing
 from dataclasses import dataclass
@@ -18,10 +19,13 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat, post
+from .logs import warn
 from .contact import ContactPressure
 from .discretization import Discretization
 from .run_summary import RUNNING, StepRecord
 from .stepping import Control
+
+log = logging.getLogger(__name__)
 
 #: load factors closer than this count as equal (a step's load against a requested one)
 LOAD_TOL = 1e-9
@@ -195,8 +199,8 @@ class RunWriter:
                 for path in (self.xdmf_path, h5):
                     if path.exists():
                         path.replace(path.with_name(path.name + ".broken"))
-                        print(f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
-                              "the displacement series starts again", flush=True)
+                        warn(log, f"{path} was left incomplete by the stopped run; kept as {path.name}.broken, "
+                                  "the displacement series starts again")
         return self.comm.bcast(ok, root=0)
 
     def _write_xdmf(self, load: float) -> None:

@@ -14,6 +14,7 @@ blocked by two components, dof ``2 * node + i`` for component ``i``.
 """
 from __future__ import annotations
 
+import logging
 import typing
 
 import numpy as np
@@ -26,6 +27,7 @@ import dolfinx
 import dolfinx.fem
 
 from . import _compat
+from .logs import say
 from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
 from .projection import Projections, build_projections
@@ -36,6 +38,8 @@ QUADRATURES = ("compressed", "subtriangles")
 
 #: kinds of SFVEM nodes
 VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
+
+log = logging.getLogger(__name__)
 
 
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
@@ -154,8 +158,9 @@ class VEMSpace:
         self.comm = comm
         self.mesh, cell_polygon = mesh.to_dolfinx(comm)
         self.V = _compat.vector_function_space(self.mesh, 2)
-        self._cell_polygon = cell_polygon[:_compat.num_owned_cells(self.mesh)]   # ghost cells dropped
-        self.polygons = np.unique(self._cell_polygon).astype(np.int64)
+        #: polygon of every local sub-triangle (owned cells first)
+        self.cell_polygon = np.asarray(cell_polygon, dtype=np.int64)
+        self.polygons = np.unique(self.cell_polygon[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
         self.tags = mesh.tags[self.polygons]
 
         self.edge_index = _GlobalEdges(mesh)
@@ -172,10 +177,7 @@ class VEMSpace:
             polygon_quadrature(*triangles) if quadrature == "subtriangles"
             else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles))
         self._to_p2 = None
-        if verbose:
-            text = self.summary()
-            if comm.rank == 0:
-                print(text, flush=True)
+        say(log, self.summary(), verbose, comm)
 
     # ------------------------------------------------------------------ numbering
     def _polygon_p2_nodes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -329,11 +331,10 @@ class VEMSpace:
             return self._to_p2
         im = self.V.dofmap.index_map
         n_p2 = im.size_local + im.num_ghosts
-        p2 = _compat.cell_dofs(self.V)[:self._cell_polygon.size]
+        owned_cells = _compat.num_owned_cells(self.mesh)
+        p2 = _compat.cell_dofs(self.V)[:owned_cells]
         x_p2 = self.V.tabulate_dof_coordinates()[:, :2]
-        local_of_global = {g: k for k, g in enumerate(self.polygons)}
-        cell_local_polygon = np.fromiter((local_of_global[g] for g in self._cell_polygon), dtype=np.int64,
-                                         count=self._cell_polygon.size)
+        cell_local_polygon = np.searchsorted(self.polygons, self.cell_polygon[:owned_cells])
         # one owning polygon per P2 node of the owned cells (any polygon containing it gives
         # the same value for boundary nodes; interior nodes belong to exactly one polygon);
         # nodes seen only by ghost cells get their values from their owner by a scatter

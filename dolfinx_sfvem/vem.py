@@ -16,8 +16,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
-from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, load_loop, projected_fields,
-                       residual_loop, tangent_loop)
+from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, first_piola_at, load_loop,
+                       projected_fields, residual_loop, tangent_loop)
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
@@ -332,3 +332,27 @@ class SFVEMDiscretization(Discretization):
     @property
     def dolfinx_mesh(self):
         return self.space.mesh
+
+    def cell_tags(self):
+        """Region tag of every local sub-triangle (its polygon's)."""
+        return _compat.create_cell_tags(self.space.mesh, self.space.polygon_mesh.tags[self.space.cell_polygon])
+
+    def cell_stress(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """F and P at the centroid of every owned sub-triangle, from Π⁰_l∇u of its polygon."""
+        space, proj = self.space, self.space.projections
+        n = _compat.num_owned_cells(space.mesh)
+        centre = space.mesh.geometry.x[_compat.cell_geometry_nodes(space.mesh)[:n], :2].mean(axis=1)
+        polygon = np.searchsorted(space.polygons, space.cell_polygon[:n])
+        F, P = np.zeros((n, 2, 2)), np.zeros((n, 2, 2))
+        with x.localForm() as xl:
+            u = xl.array_r.reshape(-1, 2)
+            for reg in self.regions:
+                on = np.flatnonzero(np.isin(polygon, reg.polygons))
+                k = reg.kernels
+                F_on, P_on = np.empty((on.size, 2, 2)), np.empty((on.size, 2, 2))
+                first_piola_at(k.residual, k.pack_constants(reg.params), k.F_offset, k.G_offset, _residual_at(k)[0],
+                               k.uses_gradient, polygon[on], np.ascontiguousarray(centre[on]), space.dof_offsets,
+                               space.dofs, proj.l, proj.centroid, proj.diameter, proj.Pi_m_offsets, proj.Pi_m, u,
+                               F_on, P_on)
+                F[on], P[on] = F_on, P_on
+        return F, P
