@@ -5,7 +5,7 @@ plane strain. A radial deformation maps the reference radius R (a <= R <= b) to 
 radius rho(R); its principal stretches are ``lambda_r = rho'``, ``lambda_theta = rho / R`` and
 ``lambda_z = 1``, so ``J = lambda_r lambda_theta`` and ``tr C = lambda_r^2 + lambda_theta^2 + 1``.
 
-Three answers, all in consistent unit-free quantities (lengths a, b; stresses K, mu, p):
+The answers, all in consistent unit-free quantities (lengths a, b; stresses K, mu, p):
 
 * :func:`lame_cylinder`: the small-strain (Lamé) solution. The linearisation of Eq. 2 at F = I is
   ``K/2 (tr eps)^2 + mu |dev eps|^2`` (dev of the 3D strain, eps_zz = 0), i.e. isotropic with
@@ -120,6 +120,7 @@ def _radial_stretch(P1: float, lambda_theta: float, K: float, mu: float) -> floa
     """The radial stretch with ``dPsi/dlambda_r(lambda_r, lambda_theta) = P1`` (bracketed root)."""
     if not lambda_theta > 0:
         raise ValueError(f"hoop stretch must be > 0, got {lambda_theta!r}")
+
     def residual(lambda_r: float) -> float:
         return float(piola_stresses(lambda_r, lambda_theta, K, mu)[0]) - P1
 
@@ -367,14 +368,10 @@ def cylinder_at_outer_stretch(a: float, b: float, K: float, mu: float, outer_str
 
     Parameters
     ----------
-    a, b : float
-        Inner and outer radius, 0 < a < b.
-    K, mu : float
-        Bulk and shear modulus of Eq. 2 (> 0).
+    a, b, K, mu, load
+        As :func:`pressurized_cylinder`.
     outer_stretch : float > 0
         ``rho(b) / b``; above 1 for an internal pressure p > 0.
-    load : "follower", "dead" or CavityMedium
-        The condition at R = a (module docstring).
     """
     _check_geometry(a, b, K, mu)
     _check_load(load)
@@ -411,6 +408,11 @@ def _walk(pressure: Callable[[float], float], t0: float, target: float) -> tuple
     raise RuntimeError(f"the pressure does not reach {target!r} up to ln(outer stretch) = {t!r}")
 
 
+def _pressure_path(a: float, b: float, K: float, mu: float, load: Load) -> Callable[[float], float]:
+    """The pressure p as a function of t = ln(rho(b)/b)."""
+    return lambda t: cylinder_at_outer_stretch(a, b, K, mu, math.exp(t), load).p
+
+
 def _peak(pressure: Callable[[float], float], low: float, high: float) -> float:
     """ln(outer stretch) of the maximum of p on [low, high] (bounded Brent)."""
     found = scipy.optimize.minimize_scalar(lambda t: -pressure(t), bounds=(low, high), method="bounded",
@@ -439,10 +441,7 @@ def pressurized_cylinder(a: float, b: float, K: float, mu: float, p: float,
     _check_geometry(a, b, K, mu)
     if not math.isfinite(p):
         raise ValueError(f"pressure p must be finite, got {p!r}")
-
-    def pressure(t: float) -> float:
-        return cylinder_at_outer_stretch(a, b, K, mu, math.exp(t), load).p
-
+    pressure = _pressure_path(a, b, K, mu, load)
     if p == 0:
         return cylinder_at_outer_stretch(a, b, K, mu, 1.0, load)
     lame_outer = lame_cylinder(a, b, K, mu, p).u_r(b) / b
@@ -460,9 +459,6 @@ def limit_pressure(a: float, b: float, K: float, mu: float, load: Load = "follow
     """The radial solution at the largest internal pressure the cylinder carries (the maximum of p
     along the path :func:`cylinder_at_outer_stretch`; its p is the limit pressure)."""
     _check_geometry(a, b, K, mu)
-
-    def pressure(t: float) -> float:
-        return cylinder_at_outer_stretch(a, b, K, mu, math.exp(t), load).p
-
+    pressure = _pressure_path(a, b, K, mu, load)
     low, high, _ = _walk(pressure, 1e-2, math.inf)
     return cylinder_at_outer_stretch(a, b, K, mu, math.exp(_peak(pressure, low, high)), load)
