@@ -1,13 +1,15 @@
-"""Exact answers for validating loads (dolfinx_sfvem.exact): the radial BVP checked against an
-energy differentiated here by sympy and finite differences of the returned rho, and its limits
-(Lamé, follower vs dead, medium with gamma = 0, limit pressure)."""
+"""Exact answers for validating loads (dolfinx_sfvem.exact) and their meshes (thick_cylinder,
+shallow_arch): the radial BVP checked against an energy differentiated here by sympy and finite
+differences of the returned rho, its limits (Lamé, follower vs dead, medium with gamma = 0), and
+the meshes' areas against the exact chord-polygon areas."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import sympy
 
-from dolfinx_sfvem import exact
+from dolfinx_sfvem import exact, meshes
+from dolfinx_sfvem.meshes import MEDIUM, SOLID
 
 A, B, K, MU = 1.0, 2.0, 5 / 3, 1.0   # the reference case of docs/validation-loads.md (Lamé lambda = mu)
 P = 2 / 15                             # Lamé's u_r(a) = 0.1
@@ -193,3 +195,112 @@ def test_bad_input_is_named():
         exact.CavityMedium(-1.0, MU)
     with pytest.raises(ValueError, match="reference radius R"):
         exact.pressurized_cylinder(A, B, K, MU, P).rho(0.5)
+
+
+# --------------------------------------------------------------------------- meshes
+def shoelace(xy: np.ndarray) -> float:
+    return 0.5 * float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+
+
+def region_area(mesh, tag: int) -> float:
+    return sum(shoelace(mesh.polygon_coordinates(i)) for i in np.flatnonzero(mesh.tags == tag))
+
+
+def segment_areas(bench, name: str) -> float:
+    """Total area between the named arc and its chords (the mesh edges on it)."""
+    arc = bench.arcs[name]
+    pairs = bench.edges_on(name)
+    chord = np.linalg.norm(np.diff(bench.mesh.points[pairs], axis=1)[:, 0], axis=1)
+    phi = 2 * np.arcsin(chord / (2 * arc.radius))
+    return float(np.sum(arc.radius ** 2 / 2 * (phi - np.sin(phi))))
+
+
+@pytest.fixture(scope="module")
+def cylinders():
+    return {(polygons, h): meshes.thick_cylinder(A, B, h, filled=True, polygons=polygons)
+            for polygons in ("dual", "triangles", "quads") for h in (0.2, 0.1)}
+
+
+@pytest.mark.parametrize("polygons", ["dual", "triangles", "quads"])
+def test_cylinder_areas_are_the_chord_polygons(cylinders, polygons):
+    deficits = []
+    for h in (0.2, 0.1):
+        bench = cylinders[polygons, h]
+        mesh = bench.mesh
+        assert bench.regions == {"solid": SOLID, "cavity": MEDIUM} and mesh.region_names == bench.regions
+        inner, outer = segment_areas(bench, "inner"), segment_areas(bench, "outer")
+        wall, disc = region_area(mesh, SOLID), region_area(mesh, MEDIUM)
+        assert wall == pytest.approx(np.pi * (B ** 2 - A ** 2) / 4 - outer + inner, rel=1e-12)
+        assert disc == pytest.approx(np.pi * A ** 2 / 4 - inner, rel=1e-12)
+        deficits.append((np.pi * A ** 2 / 4 - disc, np.pi * (B ** 2 - A ** 2) / 4 - wall))
+    assert len(cylinders[polygons, 0.1].edges_on("outer")) == 2 * len(cylinders[polygons, 0.2].edges_on("outer"))
+    (disc_coarse, wall_coarse), (disc_fine, wall_fine) = deficits
+    assert 0 < disc_fine and disc_coarse / disc_fine == pytest.approx(4, rel=0.01)   # O(h^2), counts doubled
+    assert 0 < wall_fine and wall_coarse / wall_fine == pytest.approx(4, rel=0.01)
+
+
+@pytest.mark.parametrize("polygons", ["dual", "triangles", "quads"])
+def test_cylinder_names(cylinders, polygons):
+    bench = cylinders[polygons, 0.2]
+    points = bench.mesh.points
+    for name, xy in bench.points.items():
+        assert np.array_equal(points[bench.vertex(name)], xy)
+    for name, radius in (("inner", A), ("outer", B)):
+        on = points[bench.vertices_on(name)]
+        assert np.abs(np.hypot(*on.T) - radius).max() < 1e-12 and (on >= 0).all()
+        pairs = bench.edges_on(name)
+        chord = np.linalg.norm(np.diff(points[pairs], axis=1)[:, 0], axis=1)
+        assert chord.sum() == pytest.approx(np.pi / 2 * radius, rel=0.01)   # they follow the whole quarter arc
+        midpoints = np.hypot(*points[pairs].mean(axis=1).T)
+        assert midpoints == pytest.approx(radius * np.cos(np.arcsin(chord / (2 * radius))), rel=1e-12)
+        assert len(bench.nodes_on(name)) == 2 * len(pairs) + 1
+    for name, component in (("axis_x", 0), ("axis_y", 1)):
+        on = points[bench.vertices_on(name)]
+        assert np.abs(on[:, component]).max() == pytest.approx(B) and np.abs(on[:, 1 - component]).max() == 0.0
+        assert len(bench.edges_on(name)) == len(on) - 1
+
+
+def test_cylinder_geometry_does_not_follow_h_and_whole_annulus():
+    coarse, fine = meshes.thick_cylinder(h=0.2), meshes.thick_cylinder(h=0.1)
+    assert (coarse.points, coarse.segments, coarse.arcs) == (fine.points, fine.segments, fine.arcs)
+    assert coarse.regions == {"solid": SOLID}
+    whole = meshes.thick_cylinder(h=0.2, quarter=False)
+    assert region_area(whole.mesh, SOLID) == pytest.approx(4 * region_area(coarse.mesh, SOLID), rel=1e-12)
+    assert len(whole.edges_on("inner")) == 4 * len(coarse.edges_on("inner")) and not whole.segments
+
+
+def test_bad_mesh_input_is_named():
+    with pytest.raises(ValueError, match="outer radius b"):
+        meshes.thick_cylinder(2.0, 1.0)
+    with pytest.raises(ValueError, match="polygons must be"):
+        meshes.thick_cylinder(polygons="hexagons")
+    with pytest.raises(ValueError, match="thickness"):
+        meshes.shallow_arch(thickness=0.0)
+
+
+@pytest.mark.parametrize("polygons", ["dual", "triangles", "quads"])
+def test_shallow_arch(polygons):
+    span, rise, t = 1.0, 0.1, 0.03
+    bench = meshes.shallow_arch(0.01, polygons=polygons)
+    mesh, points = bench.mesh, bench.mesh.points
+    apex = points[bench.vertex("apex")]
+    assert np.array_equal(apex, bench.points["apex"]) and apex == pytest.approx([0.0, rise + t / 2], abs=1e-15)
+    assert np.array_equal(points[bench.vertex("apex_bottom")], bench.points["apex_bottom"])
+    top = bench.arcs["top"]
+    assert top.contains(apex[None], 1e-12)[0] and bench.vertex("apex") in bench.edges_on("top")
+    assert top.radius - bench.arcs["bottom"].radius == pytest.approx(t)
+    R = (span ** 2 / 4 + rise ** 2) / (2 * rise)
+    assert top.centre == pytest.approx((0.0, rise - R)) and top.radius == pytest.approx(R + t / 2)
+    # symmetric about x = 0: every point has its mirror image
+    mirrored = points * [-1.0, 1.0]
+    order, mirror_order = np.lexsort(points.T[::-1]), np.lexsort(mirrored.T[::-1])
+    assert np.abs(points[order] - mirrored[mirror_order]).max() < 1e-12
+    # the clamped faces: radial lines through the centre, mirror images of each other
+    for name, sign in (("left_end", -1), ("right_end", 1)):
+        on = points[bench.vertices_on(name)] - top.centre
+        assert len(on) >= 4 and np.abs(np.cross(on, on[0])).max() < 1e-12
+        assert np.sign(on[:, 0]).tolist() == [sign] * len(on)
+    band = top.end - top.start
+    exact_area = band / 2 * (top.radius ** 2 - bench.arcs["bottom"].radius ** 2)
+    chords = segment_areas(bench, "top") - segment_areas(bench, "bottom")
+    assert region_area(mesh, SOLID) == pytest.approx(exact_area - chords, rel=1e-12)
