@@ -532,8 +532,8 @@ def shallow_arch(h: float = 0.01, *, span: float = 1.0, rise: float = 0.1, thick
     triangles of size h, their chord midpoints rounded onto the arcs, the triangles, or quads
     between circles and rays) and mirrored, so the mesh is symmetric about x = 0; the ends and
     the axis carry ``N = round(thickness / h)`` equal segments, the top and bottom arcs of the half
-    ``N round(R_top * half-angle / thickness)`` (all counts double exactly with N). Curved sides are followed by chords (O(h^2) geometric
-    error, see :func:`thick_cylinder`).
+    ``N round(R_top * half-angle / thickness)`` (all counts double exactly with N). Curved sides
+    are followed by chords (O(h^2) geometric error, see :func:`thick_cylinder`).
 
     Named points: ``apex`` (0, rise + thickness/2) on the top surface, where the force acts, and
     ``apex_bottom`` (0, rise - thickness/2). Named segments: ``left_end``, ``right_end``, the
