@@ -1,6 +1,7 @@
 """The paper's benchmark geometries, meshed: C-box (§5.2, dual polygons or quads), box with
 cavity (§5.3), punch (§5.4) and several objects (§5.5), each with the named points and boundary
-segments its demo needs.
+segments its demo needs; and two geometries for validating loads: a thick-walled cylinder (exact
+answers in :mod:`dolfinx_sfvem.exact`) and a shallow clamped arch (snap-through).
 
 Each generator that needs gmsh runs its own gmsh session, so do not call one while holding a gmsh
 session of your own open — use ``meshes.from_gmsh(None)`` to read your current model instead.
@@ -10,13 +11,14 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Callable, Sequence
+from typing import Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
-from .meshing.gmsh_duals import dual_of_gmsh, straight_region
-from .meshing.grids import axis_nodes, quad_grid
-from .meshing.polygon_sets import glue
+from .meshing.gmsh_duals import GmshBuilder, dual_of_gmsh, gmsh_triangles, straight_region
+from .meshing.grids import axis_nodes, n_segments, quad_grid
+from .meshing.polygon_sets import PolygonSet, csr, glue, length_tolerance, next_in_polygon
 from .polygon_mesh import PolygonMesh
 
 
@@ -26,6 +28,23 @@ SOLID = 1
 
 #: region tag of the third medium
 MEDIUM = 2
+
+
+class Arc(NamedTuple):
+    """A circular arc: ``centre + radius (cos t, sin t)`` for ``start <= t <= end`` (radians,
+    counter-clockwise, ``end - start <= 2 pi``)."""
+
+    centre: tuple[float, float]
+    radius: float
+    start: float
+    end: float
+
+    def contains(self, points: np.ndarray, tol: float) -> np.ndarray:
+        """Whether each point (n, 2) lies on the arc, within ``tol`` (a length)."""
+        d = points - np.asarray(self.centre)
+        on_circle = np.abs(np.hypot(d[:, 0], d[:, 1]) - self.radius) <= tol
+        angle = np.mod(np.arctan2(d[:, 1], d[:, 0]) - self.start + tol / self.radius, 2 * np.pi)
+        return on_circle & (angle <= self.end - self.start + 2 * tol / self.radius)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,12 +61,16 @@ class Benchmark:
         Named points; each is a mesh vertex.
     segments : dict name -> ((x0, y0), (x1, y1))
         Named straight boundary pieces (e.g. clamped sides).
+    arcs : dict name -> Arc
+        Named circular boundary pieces; the mesh follows them by chords whose end points lie on
+        the circle (the straight edges' midpoints are then inside the circle by the sagitta).
     """
 
     mesh: PolygonMesh
     regions: dict[str, int]
     points: dict[str, tuple[float, float]]
     segments: dict[str, tuple[tuple[float, float], tuple[float, float]]]
+    arcs: dict[str, Arc] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         self.mesh.region_names = dict(self.regions)
@@ -60,13 +83,45 @@ class Benchmark:
             raise ValueError(f"named point {name!r} {self.points[name]} is not a mesh vertex")
         return index
 
-    def vertices_on(self, name: str) -> np.ndarray:
-        """Indices (k,) of the mesh vertices on the named segment."""
-        points = self.mesh.points
+    def _on(self, name: str, points: np.ndarray) -> np.ndarray:
+        """Whether each point (n, 2) lies on the named segment or arc."""
+        if name in self.arcs:
+            return self.arcs[name].contains(points, self.mesh.tol)
+        if name not in self.segments:
+            raise KeyError(f"no segment or arc named {name!r}; segments {sorted(self.segments)}, "
+                           f"arcs {sorted(self.arcs)}")
         a, b = (np.asarray(p, dtype=np.float64) for p in self.segments[name])
         s = np.clip((points - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
-        distance = np.linalg.norm(points - (a + s[:, None] * (b - a)), axis=1)
-        return np.flatnonzero(distance <= self.mesh.tol)
+        return np.linalg.norm(points - (a + s[:, None] * (b - a)), axis=1) <= self.mesh.tol
+
+    def vertices_on(self, name: str) -> np.ndarray:
+        """Indices (k,) of the mesh vertices on the named segment or arc."""
+        return np.flatnonzero(self._on(name, self.mesh.points))
+
+    def edges_on(self, name: str) -> np.ndarray:
+        """Mesh edges (k, 2) on the named segment or arc: pairs of vertex indices, each edge once,
+        both ends on it and the edge on the outer boundary or on an interface between two regions
+        (an arc's chords; a chord across a region, between two points of its arc, is not one)."""
+        mesh = self.mesh
+        start = mesh.vertices
+        end = start[next_in_polygon(mesh.offsets)]
+        key = np.minimum(start, end) * mesh.n_points + np.maximum(start, end)
+        tag = mesh.tags[mesh.polygon_of_entry()]
+        keys, first, where, count = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+        low, high = np.full(keys.size, np.iinfo(np.int32).max), np.full(keys.size, np.iinfo(np.int32).min)
+        np.minimum.at(low, where, tag)
+        np.maximum.at(high, where, tag)
+        boundary = (count == 1) | (low != high)
+        on = self._on(name, mesh.points)
+        pairs = np.stack([start[first], end[first]], axis=1)
+        return pairs[boundary & on[pairs[:, 0]] & on[pairs[:, 1]]]
+
+    def nodes_on(self, name: str) -> np.ndarray:
+        """Coordinates (k, 2) of the vertices and edge midpoints of :meth:`edges_on`: the nodes of
+        the degree-2 edge traces on the named segment or arc (sorted)."""
+        pairs = self.edges_on(name)
+        points = self.mesh.points
+        return np.unique(np.concatenate([points[pairs.ravel()], points[pairs].mean(axis=1)]), axis=0)
 
 
 def _solid_with_quad_medium(solid_loops: Sequence[npt.ArrayLike], h: float, xs: np.ndarray,
@@ -277,3 +332,255 @@ def multi_object(h: float = 0.04, gap: float = 0.1, keep_gmsh: str | os.PathLike
                      {f"disc_tip_{i + 1}": (x, T + gap) for i, x in enumerate(centres)},
                      {"left_end": ((0.0, 0.0), (0.0, T)), "right_end": ((L, 0.0), (L, T)),
                       **{f"disc_top_{i + 1}": ((x - R, top), (x + R, top)) for i, x in enumerate(centres)}})
+
+
+# --------------------------------------------------------------------------- geometries for validating loads
+#: how a validation geometry is meshed: duals of gmsh triangles, the triangles themselves, or mapped quads
+Polygons = Literal["dual", "triangles", "quads"]
+
+
+def _unit(angles: np.ndarray) -> np.ndarray:
+    """Unit vectors (n, 2) at ``angles`` (radians), components below 1e-15 set to exact zeros (so the
+    points at multiples of pi/2 lie exactly on the axes)."""
+    vectors = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    vectors[np.abs(vectors) < 1e-15] = 0.0
+    return vectors
+
+
+def _polar_quads(centre: Sequence[float], radii: np.ndarray, angles: np.ndarray, tag: int) -> PolygonSet:
+    """Quadrilaterals between the circles ``radii`` and the rays ``angles`` (both increasing) around
+    ``centre``: straight-sided, their vertices on the circles."""
+    grid = quad_grid(radii, angles, tag)
+    r, t = grid.points.T
+    return grid._replace(points=np.asarray(centre) + r[:, None] * _unit(t))
+
+
+def _quarter_disc_quads(a: float, n: int, m: int, tag: int) -> list[PolygonSet]:
+    """Quadrilaterals on the quarter disc R < a, an O-grid in three parts: the square [0, a/2]^2
+    of n x n quads and two patches of m x n quads between its sides x = a/2 and y = a/2 and the
+    arc, whose 2 n equal segments are those of :func:`_polar_quads` with 2 n angle steps on [0, pi/2]."""
+    s = a / 2
+    parts = [quad_grid(np.linspace(0.0, s, n + 1), np.linspace(0.0, s, n + 1), tag)]
+    for side, first_angle in ((lambda eta: np.stack([np.full_like(eta, s), s * eta], axis=-1), 0.0),
+                              (lambda eta: np.stack([s * (1 - eta), np.full_like(eta, s)], axis=-1), np.pi / 4)):
+        patch = quad_grid(np.linspace(0.0, 1.0, m + 1), np.linspace(0.0, 1.0, n + 1), tag)
+        t, eta = patch.points.T
+        rim = a * _unit(first_angle + np.pi / 4 * eta)
+        parts.append(patch._replace(points=(1 - t)[:, None] * side(eta) + t[:, None] * rim))
+    return parts
+
+
+def _round_chord_midpoints(polygons: PolygonSet, arcs: Sequence[Arc]) -> PolygonSet:
+    """Move the dual's boundary midpoints on chords of the arcs radially onto the circles.
+
+    In a dual polygon (:func:`dual_polygons`) a triangle vertex v on a region boundary is next to the
+    midpoints m of its two boundary edges, and to no other point. Where v and the edge's other end
+    ``2 m - v`` lie on an arc, m (on the chord) is moved onto the circle: every boundary vertex of
+    the polygons then lies on the circle, as every boundary vertex of the triangles did.
+    """
+    points = polygons.points.copy()
+    offsets, flat = csr(polygons.polygons)
+    following = flat[next_in_polygon(offsets)]
+    v, m = np.concatenate([flat, following]), np.concatenate([following, flat])
+    tol = length_tolerance(points)
+    for arc in arcs:
+        on = arc.contains(points, tol)
+        midpoints = np.unique(m[on[v] & ~on[m] & arc.contains(2 * points[m] - points[v], tol)])
+        outward = points[midpoints] - np.asarray(arc.centre)
+        points[midpoints] = arc.centre + arc.radius * outward / np.linalg.norm(outward, axis=1)[:, None]
+    return polygons._replace(points=points)
+
+
+def _gmsh_polygons(build: GmshBuilder, h: float, polygons: Polygons, arcs: Sequence[Arc],
+                   keep_gmsh: str | os.PathLike | None) -> PolygonSet:
+    """The gmsh triangles of ``build`` (``polygons = "triangles"``) or their duals with the chord
+    midpoints on ``arcs`` rounded onto the circles (``"dual"``)."""
+    if polygons == "triangles":
+        return gmsh_triangles(build, h, keep_gmsh)
+    return _round_chord_midpoints(dual_of_gmsh(build, h, keep_gmsh), arcs)
+
+
+def _check_polygons_option(polygons: str) -> None:
+    if polygons not in ("dual", "triangles", "quads"):
+        raise ValueError(f"polygons must be 'dual', 'triangles' or 'quads', got {polygons!r}")
+
+
+def _check_lengths(**lengths: float) -> None:
+    """ValueError naming the first length that is not a finite number > 0."""
+    for name, value in lengths.items():
+        if not (isinstance(value, (int, float, np.floating)) and np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a number > 0, got {value!r}")
+
+
+def _rotated(part: PolygonSet, quarter_turns: int) -> PolygonSet:
+    """The part turned by ``quarter_turns`` x 90 degrees about the origin (exact in floating point)."""
+    x, y = part.points.T
+    for _ in range(quarter_turns):
+        x, y = -y, x
+    return part._replace(points=np.stack([x, y], axis=1))
+
+
+def _mirrored(part: PolygonSet) -> PolygonSet:
+    """The part reflected in the axis x = 0, its polygons kept counter-clockwise."""
+    return PolygonSet(part.points * np.array([-1.0, 1.0]), [p[::-1] for p in part.polygons], part.tags)
+
+
+def thick_cylinder(a: float = 1.0, b: float = 2.0, h: float = 0.1, *, filled: bool = False, quarter: bool = True,
+                   polygons: Polygons = "dual", keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
+    """Thick-walled cylinder a < R < b (plane strain) for internal, cavity or follower pressure;
+    exact answers in :mod:`dolfinx_sfvem.exact`.
+
+    Geometry: the quarter annulus a < R < b, x >= 0, y >= 0 (``quarter=True``; the symmetry
+    conditions u_y = 0 on y = 0 and u_x = 0 on x = 0 are the user's), or the whole annulus.
+    With ``filled=True`` the hole R < a is a third-medium region :data:`MEDIUM` named
+    ``"cavity"`` (for ``cavity_pressure``), meshed conformingly with the wall.
+
+    Mesh (``polygons``), refining one fixed geometry uniformly with ``h``: the radial sides carry
+    ``N = round((b - a) / h)`` equal segments, each quarter of both arcs ``n_theta = 2 k N`` with
+    the fixed ``k = round(pi b / (4 (b - a)))`` (outer segments about h), so all counts double
+    exactly when N does (h = (b - a) / N);
+
+    * ``"dual"``: dual polygons (:func:`dual_polygons`) of a gmsh Frontal-Delaunay triangle mesh
+      of size h with these boundary nodes, the midpoints of its boundary edges on the arcs moved
+      radially onto the circles, so every boundary vertex lies on its circle;
+    * ``"triangles"``: that triangle mesh itself (for P2 FEM and comparisons);
+    * ``"quads"``: straight-sided quadrilaterals between the circles of N equal radial steps and
+      ``n_theta`` equal angle steps (not parallelograms: the Q2 FEM does not take them); the hole
+      as an O-grid: a square of side a/2 with ``k N`` x ``k N`` quads and two mapped patches of
+      ``k N`` x ``k N // 2`` quads between it and the arc.
+
+    The curved boundaries are followed by straight edges between vertices on the circles: an edge
+    of length l misses its arc by the sagitta l^2 / (8 R) (its midpoint, where the degree-2 trace
+    has its node, lies inside the circle by that much), so the region areas fall short of the exact
+    ones by O(h^2) and so does every answer of the discrete problem.
+
+    The whole annulus (``quarter=False``) is the quarter mesh turned by 90, 180 and 270 degrees
+    and glued (the symmetric node distribution on the two axes makes the copies match).
+
+    Named points: ``inner_x`` (a, 0), ``inner_y`` (0, a), ``outer_x`` (b, 0), ``outer_y`` (0, b),
+    and ``centre`` (0, 0) when filled. Named arcs (:class:`Arc`): ``inner`` (R = a, the cavity
+    surface) and ``outer`` (R = b). Named segments (quarter only): ``axis_x`` on y = 0 and
+    ``axis_y`` on x = 0, from the centre when filled, else from R = a, to R = b.
+
+    ``keep_gmsh``: write the gmsh model of the quarter to ``<keep_gmsh>.geo`` / ``.msh``
+    (:func:`write_gmsh`; not with quads).
+    """
+    _check_lengths(a=a, b=b, h=h)
+    if not b > a:
+        raise ValueError(f"outer radius b = {b!r} must exceed inner radius a = {a!r}")
+    _check_polygons_option(polygons)
+    n_r = n_segments(b - a, h)
+    n_theta = 2 * n_r * n_segments(np.pi * b / 4, b - a)
+    inner, outer = (Arc((0.0, 0.0), r, 0.0, np.pi / 2 if quarter else 2 * np.pi) for r in (a, b))
+    if polygons == "quads":
+        angles = np.linspace(0.0, np.pi / 2, n_theta + 1)
+        parts = [_polar_quads((0.0, 0.0), np.linspace(a, b, n_r + 1), angles, SOLID)]
+        if filled:
+            parts += _quarter_disc_quads(a, n_theta // 2, max(1, n_theta // 4), MEDIUM)
+    else:
+        n_disc = n_r * n_segments(a, b - a)
+        parts = [_gmsh_polygons(_cylinder_builder(a, b, filled, n_theta, n_r, n_disc), h, polygons,
+                                [inner._replace(end=np.pi / 2), outer._replace(end=np.pi / 2)], keep_gmsh)]
+    if not quarter:
+        parts = [_rotated(part, k) for k in range(4) for part in parts]
+    regions = {"solid": SOLID, "cavity": MEDIUM} if filled else {"solid": SOLID}
+    points = {"inner_x": (a, 0.0), "inner_y": (0.0, a), "outer_x": (b, 0.0), "outer_y": (0.0, b)}
+    if filled:
+        points["centre"] = (0.0, 0.0)
+    start = 0.0 if filled else a
+    segments = {"axis_x": ((start, 0.0), (b, 0.0)), "axis_y": ((0.0, start), (0.0, b))} if quarter else {}
+    return Benchmark(glue(*parts), regions, points, segments, {"inner": inner, "outer": outer})
+
+
+def _cylinder_builder(a: float, b: float, filled: bool, n_theta: int, n_r: int, n_disc: int) -> GmshBuilder:
+    """gmsh builder of the quarter annulus (and the quarter disc R < a when ``filled``) with
+    ``n_theta`` segments on each arc, ``n_r`` on the radial sides of the wall, ``n_disc`` on those
+    of the disc."""
+    def build(gmsh, h: float) -> dict[int, list[int]]:
+        geo = gmsh.model.geo
+        centre, inner_x, inner_y, outer_x, outer_y = (geo.addPoint(x, y, 0.0, h) for x, y in
+                                                      ((0, 0), (a, 0), (0, a), (b, 0), (0, b)))
+        inner, outer = geo.addCircleArc(inner_x, centre, inner_y), geo.addCircleArc(outer_x, centre, outer_y)
+        axis_x, axis_y = geo.addLine(inner_x, outer_x), geo.addLine(outer_y, inner_y)
+        regions = {SOLID: [geo.addPlaneSurface([geo.addCurveLoop([axis_x, outer, axis_y, -inner])])]}
+        counts = {inner: n_theta, outer: n_theta, axis_x: n_r, axis_y: n_r}
+        if filled:
+            to_rim, from_rim = geo.addLine(centre, inner_x), geo.addLine(inner_y, centre)
+            regions[MEDIUM] = [geo.addPlaneSurface([geo.addCurveLoop([to_rim, inner, from_rim])])]
+            counts.update({to_rim: n_disc, from_rim: n_disc})
+        for curve, n in counts.items():
+            geo.mesh.setTransfiniteCurve(curve, n + 1)
+        geo.synchronize()
+        return regions
+
+    return build
+
+
+def shallow_arch(h: float = 0.01, *, span: float = 1.0, rise: float = 0.1, thickness: float = 0.03,
+                 polygons: Polygons = "dual", keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
+    """Shallow clamped circular arch for an apex point force: a limit point (snap-through).
+
+    Geometry: the mid-surface is the circular arc through (-span/2, 0), (0, rise) and (span/2, 0),
+    of radius ``R = (span^2/4 + rise^2) / (2 rise)`` about ``(0, rise - R)`` and half-angle
+    ``asin(span / (2 R))``; the arch is the band R -/+ thickness/2 about it, cut at its ends along
+    radii (the clamped faces). The defaults (span 1, rise 0.1, thickness 0.03: rise over radius of
+    gyration 11.5) are the classical clamped shallow arch under a central point force, chosen
+    where the symmetric limit point comes well before any antisymmetric bifurcation
+    (docs/validation-loads.md).
+
+    Mesh: the half x >= 0 meshed (``polygons`` as in :func:`thick_cylinder`: duals of gmsh
+    triangles of size h, their chord midpoints rounded onto the arcs, the triangles, or quads
+    between circles and rays) and mirrored, so the mesh is symmetric about x = 0; the ends and
+    the axis carry ``N = round(thickness / h)`` equal segments, the top and bottom arcs of the half
+    ``N round(R_top * half-angle / thickness)`` (all counts double exactly with N). Curved sides
+    are followed by chords (O(h^2) geometric error, see :func:`thick_cylinder`).
+
+    Named points: ``apex`` (0, rise + thickness/2) on the top surface, where the force acts, and
+    ``apex_bottom`` (0, rise - thickness/2). Named segments: ``left_end``, ``right_end``, the
+    clamped faces. Named arcs: ``top`` and ``bottom`` surfaces.
+
+    ``keep_gmsh``: write the gmsh model of the half to ``<keep_gmsh>.geo`` / ``.msh`` (not with quads).
+    """
+    _check_lengths(h=h, span=span, rise=rise, thickness=thickness)
+    _check_polygons_option(polygons)
+    R = (span ** 2 / 4 + rise ** 2) / (2 * rise)
+    if not (rise < span / 2 and thickness < R):
+        raise ValueError(f"shallow_arch: rise {rise!r} must be below span/2 = {span / 2!r} and thickness "
+                         f"{thickness!r} below the mid-surface radius {R!r}")
+    centre = (0.0, rise - R)
+    half_angle = float(np.arcsin(span / (2 * R)))
+    radii = (R - thickness / 2, R + thickness / 2)
+    n_t = n_segments(thickness, h)
+    n_arc = n_t * n_segments(radii[1] * half_angle, thickness)
+    bottom, top = (Arc(centre, r, np.pi / 2 - half_angle, np.pi / 2 + half_angle) for r in radii)
+    if polygons == "quads":
+        half = _polar_quads(centre, np.linspace(*radii, n_t + 1),
+                            np.linspace(np.pi / 2 - half_angle, np.pi / 2, n_arc + 1), SOLID)
+    else:
+        half = _gmsh_polygons(_arch_builder(centre, radii, half_angle, n_arc, n_t), h, polygons, [bottom, top],
+                              keep_gmsh)
+    ends = [tuple(map(tuple, np.asarray(centre) + np.outer(radii, _unit(np.array([angle]))[0])))
+            for angle in (np.pi / 2 + half_angle, np.pi / 2 - half_angle)]
+    return Benchmark(glue(half, _mirrored(half)), {"solid": SOLID},
+                     {"apex": (0.0, centre[1] + radii[1]), "apex_bottom": (0.0, centre[1] + radii[0])},
+                     {"left_end": ends[0], "right_end": ends[1]}, {"top": top, "bottom": bottom})
+
+
+def _arch_builder(centre: tuple[float, float], radii: tuple[float, float], half_angle: float, n_arc: int,
+                  n_t: int) -> GmshBuilder:
+    """gmsh builder of the right half (x >= 0) of the arch band ``radii`` about ``centre``."""
+    def build(gmsh, h: float) -> dict[int, list[int]]:
+        geo = gmsh.model.geo
+        cx, cy = centre
+        hub = geo.addPoint(cx, cy, 0.0, h)
+        ends = [geo.addPoint(cx + r * np.sin(half_angle), cy + r * np.cos(half_angle), 0.0, h) for r in radii]
+        apexes = [geo.addPoint(cx, cy + r, 0.0, h) for r in radii]
+        bottom, top = (geo.addCircleArc(end, hub, apex) for end, apex in zip(ends, apexes))
+        end, axis = geo.addLine(ends[0], ends[1]), geo.addLine(apexes[1], apexes[0])
+        for curve, n in ((bottom, n_arc), (top, n_arc), (end, n_t), (axis, n_t)):
+            geo.mesh.setTransfiniteCurve(curve, n + 1)
+        surface = geo.addPlaneSurface([geo.addCurveLoop([end, top, axis, -bottom])])
+        geo.synchronize()
+        return {SOLID: [surface]}
+
+    return build

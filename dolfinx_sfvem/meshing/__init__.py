@@ -10,7 +10,7 @@ grids
 gmsh_io
     gmsh session, ``.msh`` input, ``.geo``/``.msh`` output.
 gmsh_duals
-    Duals of gmsh Frontal-Delaunay meshes of straight-sided regions (Voronoi-like polygons).
+    gmsh Frontal-Delaunay triangle meshes and their duals (Voronoi-like polygons).
 npz
     The ``.npz`` format of polygon meshes.
 diagnostics

@@ -1,5 +1,5 @@
-"""Polygon meshes made from gmsh triangle meshes: the dual of a Frontal-Delaunay mesh of a region
-bounded by straight sides (Voronoi-like polygons).
+"""Polygon meshes made from gmsh triangle meshes: the triangles themselves, or the dual of a
+Frontal-Delaunay mesh (Voronoi-like polygons), e.g. of a region bounded by straight sides.
 
 Each call runs its own gmsh session (:func:`~dolfinx_sfvem.meshing.gmsh_io.gmsh_session`).
 """
@@ -22,8 +22,8 @@ from .polygon_sets import PolygonSet
 GmshBuilder = Callable[[object, float], Mapping[int, Sequence[int]]]
 
 
-def dual_of_gmsh(build: GmshBuilder, h: float, keep_gmsh: str | os.PathLike | None = None) -> PolygonSet:
-    """Dual polygons (:func:`dual_polygons`) of a gmsh triangle mesh of size ``h``.
+def gmsh_triangles(build: GmshBuilder, h: float, keep_gmsh: str | os.PathLike | None = None) -> PolygonSet:
+    """A gmsh triangle mesh of size ``h``, one polygon per triangle.
 
     ``build(gmsh, h)`` creates the geometry in a fresh gmsh model (synchronised) and
     returns ``{region tag: surface tags}``; the triangles are Frontal-Delaunay
@@ -39,7 +39,14 @@ def dual_of_gmsh(build: GmshBuilder, h: float, keep_gmsh: str | os.PathLike | No
         if keep_gmsh is not None:
             write_gmsh(gmsh, keep_gmsh)
         points, _, flat, tags = model_cells(gmsh, None)
-    return dual_polygons(points, flat.reshape(-1, 3), tags)
+    return PolygonSet(points, list(flat.reshape(-1, 3)), tags)
+
+
+def dual_of_gmsh(build: GmshBuilder, h: float, keep_gmsh: str | os.PathLike | None = None) -> PolygonSet:
+    """Dual polygons (:func:`dual_polygons`) of the gmsh triangle mesh :func:`gmsh_triangles`
+    (same arguments)."""
+    triangles = gmsh_triangles(build, h, keep_gmsh)
+    return dual_polygons(triangles.points, np.asarray(triangles.polygons), triangles.tags)
 
 
 def straight_region(loops: Sequence[npt.ArrayLike], tag: int) -> GmshBuilder:
