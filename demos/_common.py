@@ -260,7 +260,8 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
 
     The command-line arguments (except ``--out``, ``--quiet``, ``--resume``, ``--pressure-at``,
     and the ``--adapt`` options when it is not given) are stored in the "parameters" of summary.json. ``solve_options``
-    (e.g. ``min_increment``) go to :meth:`~dolfinx_sfvem.ContactProblem.solve`.
+    (e.g. ``min_increment``, or a ``control``, which then replaces ``--steps``) go to
+    :meth:`~dolfinx_sfvem.ContactProblem.solve`.
 
     Returns
     -------
@@ -270,7 +271,8 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
     adapt_options = ("adapt", "adapt_levels", "adapt_max_unknowns") if args.adapt is None else ()
     problem.parameters.update({k: v for k, v in vars(args).items()
                                if k not in ("out", "quiet", "resume", "pressure_at", *adapt_options)})
-    result = problem.solve(args.steps, out=args.out, observers=observers, resume=args.resume is not None,
+    steps = None if "control" in solve_options else args.steps       # a control brings its own steps
+    result = problem.solve(steps, out=args.out, observers=observers, resume=args.resume is not None,
                            pressure_at=args.pressure_at, adapt=adaptivity(args),
                            petsc_options=petsc_options(args), **solve_options)
     if problem.comm.rank == 0:
