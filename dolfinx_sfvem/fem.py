@@ -285,15 +285,10 @@ class LagrangeDiscretization(Discretization):
                                  + eta / h_e * (psi(F_avg, jump, c) - psi(F_avg, 0 * jump, c))) * dS(t))
         return sum(energy_terms)
 
-<<<<<<< HEAD
-    def _set_state(self, x: PETSc.Vec) -> None:
-        """u <- x (ghosts included), the region constants <- the energies' parameters and the
-        energy terms' constants <- the terms' parameters."""
-=======
     def _set_state(self, x: PETSc.Vec, regularization: bool = True) -> None:
-        """u <- x (ghosts included) and the region constants <- the energies' parameters (those of
-        :meth:`Energy.unregularized_params` when ``regularization`` is False)."""
->>>>>>> contact-pressure
+        """u <- x (ghosts included), the region constants <- the energies' parameters (those of
+        :meth:`Energy.unregularized_params` when ``regularization`` is False) and the energy
+        terms' constants <- the terms' parameters."""
         with x.localForm() as xl:
             self.u.x.array[:] = xl.array_r
         for tag, energy in self.materials.items():
