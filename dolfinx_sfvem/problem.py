@@ -1,15 +1,22 @@
-"""A third-medium contact problem: mesh, region energies, boundary conditions, load path.
+"""A third-medium contact problem: the definition (mesh, region energies, boundary conditions,
+loads) and its state (displacement, load factor), with the queries on them.
 
 Example
 -------
+>>> import numpy as np
 >>> import dolfinx_sfvem as sf
->>> mesh = sf.meshes.cbox(h_solid=0.05)                      # doctest: +SKIP
->>> problem = sf.ContactProblem(mesh, {
+>>> box = sf.meshes.cbox(h_solid=0.1)
+>>> problem = sf.ContactProblem(box.mesh, {
 ...     sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14),
-...     sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)})
->>> problem.fix(lambda x: np.isclose(x[0], 0.0))
->>> problem.prescribe(lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 0.5), uy=-0.5, name="load")
->>> result = problem.solve(steps=50, out="out/cbox")
+...     sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)}, verbose=False)
+>>> clamped = problem.fix(lambda x: np.isclose(x[0], 0.0))
+>>> tip = problem.prescribe(lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 0.5), uy=-0.5, name="load")
+>>> result = problem.solve(steps=10)
+>>> result.converged, result.load
+(True, 1.0)
+>>> problem.contact_gap().value > 0                    # the beams touch through the medium, apart
+True
+>>> u = problem.displacement()                         # a dolfinx.fem.Function
 """
 from __future__ import annotations
 

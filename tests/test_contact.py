@@ -180,7 +180,8 @@ def run_cbox(*args, out):
 
 
 def test_cbox_gap_is_recorded_per_step(tmp_path):
-    proc = run_cbox("--uy", "-0.2", "--steps", "4", "--pressure-at", "0.5", "0.6", out=tmp_path)
+    proc = run_cbox("--uy", "-0.2", "--steps", "4", "--fixed-increments", "--pressure-at", "0.5", "0.6",
+                    out=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     gaps = [s["gap"]["value"] for s in summary["steps"]]
