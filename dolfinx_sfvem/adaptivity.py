@@ -18,19 +18,13 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
-from .polygon_mesh import PolygonMesh
+from .node_keys import sfvem_unknowns
 from .refine import Refinement, refine_mesh
-from .space import _GlobalEdges
 
 if typing.TYPE_CHECKING:
     from .problem import ContactProblem
 
 Indicator = typing.Callable[["ContactProblem"], npt.NDArray[np.bool_]]
-
-
-def sfvem_unknowns(mesh: PolygonMesh) -> int:
-    """Unknowns of the order-2 SFVEM on ``mesh``: 2 x (vertices + edge midpoints + polygon means)."""
-    return 2 * (mesh.n_points + _GlobalEdges(mesh).n_edges + mesh.n_polygons)
 
 
 def smallest_J(problem: ContactProblem) -> npt.NDArray[np.float64]:

@@ -223,21 +223,6 @@ def _largest_entry(load: BoundLoad, u: np.ndarray | None) -> float:
 
 
 # --------------------------------------------------------------------------- edge selection
-class _Sides:
-    """The polygon sides of a mesh (each interior edge twice), their edge keys and the keys of
-    the boundary edges (sides of one polygon)."""
-
-    def __init__(self, mesh):
-        self.start, self.end, self.polygon = mesh._edges()
-        self._n = mesh.n_points
-        self.keys = self.key(self.start, self.end)
-        unique, count = np.unique(self.keys, return_counts=True)
-        self.boundary_keys = unique[count == 1]
-
-    def key(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return np.minimum(a, b) * self._n + np.maximum(a, b)
-
-
 def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     """The boundary edges [a, m, b] (local nodes, body on the left, (n_e, 3) int64) of the
     elements this rank owns that ``where`` selects (collective).
@@ -250,7 +235,6 @@ def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     """
     offsets, loop, element = disc.element_loops
     mesh = disc.output_mesh
-    sides = _Sides(mesh)
     n_sides = np.diff(offsets) // 2
     first = np.repeat(offsets[:-1], 2 * n_sides)[::2]
     k = np.arange(offsets[-1] // 2) - np.repeat(offsets[:-1] // 2, n_sides)
@@ -258,7 +242,7 @@ def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     m = loop[first + 2 * k + 1]
     b = loop[first + (2 * k + 2) % np.repeat(2 * n_sides, n_sides)]
     edges = np.stack([a, m, b], axis=1).astype(np.int64)
-    on_boundary = np.isin(sides.key(disc.node_point[a], disc.node_point[b]), sides.boundary_keys)
+    on_boundary = np.isin(mesh.edge_index(disc.node_point[a], disc.node_point[b]), mesh.boundary_edges)
     if callable(where):
         marked = np.asarray(where(disc.x_nodes.T), dtype=bool).reshape(-1)
         chosen = marked[a] & marked[m] & marked[b]
@@ -393,8 +377,8 @@ class CavityPressure(Load):
 
 def open_boundary_edge(mesh, tag: int) -> tuple[tuple[float, float], tuple[float, float]] | None:
     """The end points of an edge of region ``tag`` on the boundary of ``mesh``, or None."""
-    sides = _Sides(mesh)
-    mine = (mesh.tags[sides.polygon] == tag) & np.isin(sides.keys, sides.boundary_keys)
+    sides = mesh.sides
+    mine = (mesh.tags[sides.polygon] == tag) & (sides.neighbour < 0)
     if not mine.any():
         return None
     i = int(np.argmax(mine))
@@ -410,7 +394,7 @@ def point_node(disc: Discretization, point: typing.Sequence[float], name: str) -
         If ``point`` is not a polygon vertex or edge midpoint of the mesh, naming the nearest one.
     """
     mesh = disc.output_mesh
-    sides = _Sides(mesh)
+    sides = mesh.sides
     candidates = np.concatenate([mesh.points, 0.5 * (mesh.points[sides.start] + mesh.points[sides.end])])
     distance = np.linalg.norm(candidates - np.asarray(point, dtype=np.float64), axis=1)
     nearest = int(np.argmin(distance))

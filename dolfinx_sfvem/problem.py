@@ -37,8 +37,9 @@ from .equilibrium import Equilibrium
 from .load_path import LoadPath, Observer, Result
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
-from .refine import Refinement, refine_mesh, transfer_state
+from .refine import Refinement, refine_mesh
 from .snes import DEFAULT_PREFIX
+from .state_transfer import transfer_state
 from .stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
