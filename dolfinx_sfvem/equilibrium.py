@@ -26,9 +26,7 @@ import typing
 from petsc4py import PETSc
 
 from .discretization import AssemblyInfo, Discretization
-
-if typing.TYPE_CHECKING:
-    from .loads import BoundLoad
+from .loads import BoundLoad
 
 
 class Equilibrium:

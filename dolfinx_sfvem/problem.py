@@ -34,10 +34,10 @@ from .adaptivity import Adaptivity
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .equilibrium import Equilibrium
-from .load_path import LoadPath, Observer, Result
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
 from .refine import Refinement, refine_mesh
+from .run_summary import Observer, Result
 from .snes import DEFAULT_PREFIX
 from .state_transfer import transfer_state
 from .stepping import Control, LoadStepping
@@ -476,7 +476,7 @@ class ContactProblem:
         The discretization is rebuilt on the refined mesh (same materials and options), the
         boundary conditions are kept (markers are evaluated again on the new nodes, tags select
         the same regions) and the state is transferred exactly for quadratic fields
-        (:func:`~dolfinx_sfvem.refine.transfer_state`, docs/refinement-local.md).
+        (:func:`~dolfinx_sfvem.state_transfer.transfer_state`, docs/refinement-local.md).
 
         Parameters
         ----------
@@ -596,6 +596,7 @@ class ContactProblem:
         elif steps is not None or min_increment is not None:
             raise ValueError("steps and min_increment belong to the default load stepping; with a control "
                              "give them to the control")
+        from .load_path import LoadPath        # the driver of a problem's path (it imports this module)
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,

@@ -49,9 +49,7 @@ from petsc4py import PETSc
 
 from . import _compat
 from .discretization import AssemblyInfo
-
-if typing.TYPE_CHECKING:
-    from .equilibrium import Equilibrium
+from .equilibrium import Equilibrium
 
 #: options prefix of a problem's solvers unless the user gives another
 DEFAULT_PREFIX = "tmc_"

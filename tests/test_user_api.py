@@ -1,6 +1,7 @@
 """What a new user meets setting up a contact problem of their own: materials by region name,
 conflicting conditions, components by letter, a second solve, observers with several values,
 converged steps apart from attempts, gmsh sessions of their own, bad output paths."""
+import logging
 import pathlib
 import subprocess
 import sys
@@ -108,7 +109,7 @@ def test_progress_line_stays_short(capsys):
     p.fix(lambda x: np.isclose(x[0], 0.0))
     p.solve(steps=1, observers={f"o{k}": (lambda q: 1.0) for k in range(6)})
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("step ")]
-    assert lines and all(len(line) <= 140 for line in lines), lines
+    assert lines and all(len(line) <= 140 for line in lines), (lines, logging.getLogger("dolfinx_sfvem").handlers)
 
 
 def test_from_gmsh_leaves_the_callers_session_open(tmp_path):
