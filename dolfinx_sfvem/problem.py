@@ -313,7 +313,8 @@ class ContactProblem:
         """Pressure λ p of a gas in a closed cavity that the third-medium region ``region`` (tag
         or name) fills: the energy term -λ p ∫ (J - 1) dΩ over the region (Faltus et al. 2024),
         the exact follower load of the cavity's area with a symmetric tangent. The region must be
-        a third medium enclosed by other regions (docs/loads.md)."""
+        a third medium enclosed by other regions, or by symmetry lines x = const / y = const with
+        the normal displacement fixed there (a half or quarter model; checked when solving)."""
         tag = self._region_tags(region, name)
         if len(tag) != 1:
             raise ValueError(f"cavity pressure {name!r}: give one region, got {region!r}")
