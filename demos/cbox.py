@@ -49,9 +49,11 @@ u_y = -0.5, gamma = 1e-5, alpha_r = 1 on both medium densities (Fig. 7, point co
     mpirun -n 2 python3 demos/cbox.py --uy -0.5 --steps 50 --mesh 1 --out out/cbox-mesh1
     mpirun -n 2 python3 demos/cbox.py --uy -0.5 --steps 50 --mesh 2 --out out/cbox-mesh2
 
-u_y = -1 with a stronger regularization, gamma = 1e-5, alpha_r = 20 (Fig. 8)::
+u_y = -1 with a stronger regularization, gamma = 1e-5, alpha_r = 20 (Fig. 8), on the finer
+medium (on mesh 1 the five-sided medium polygon at the C's mouth inverts at load 0.887 and the
+run stops there)::
 
-    mpirun -n 2 python3 demos/cbox.py --uy -1 --alpha-r 20 --steps 100 --out out/cbox-uy1
+    mpirun -n 2 python3 demos/cbox.py --uy -1 --alpha-r 20 --steps 100 --mesh 2 --out out/cbox-uy1
 
 Further options: ``python3 demos/cbox.py --help``; PETSc options are passed through, e.g.
 ``-tmc_snes_monitor -tmc_snes_linesearch_type bt``.

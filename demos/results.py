@@ -4,7 +4,8 @@
 ``mpirun`` subprocess writing to ``<out>/results/<run>/`` (default ``out/results``):
 
 - C-box (§5.2): u_y = -0.5 with gamma = 1e-5, alpha_r = 1 on both medium densities, u_y = -1
-  with alpha_r = 20;
+  with alpha_r = 20 on medium mesh 2 (on mesh 1 the medium polygon at the C's mouth inverts
+  at load 0.887);
 - box self-contact (§5.1): mesh 1, gamma = 1e-5, alpha_r = 1 (huhu_lulu, beta = 5), kept in
   the Table 2 sweep's directory (the sweep reuses it);
 - multiple objects (§5.4): boundary conditions 1 and 2;

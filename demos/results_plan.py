@@ -97,8 +97,9 @@ EXAMPLES = (
              ("--uy", "-0.5", "--steps", "50", "--mesh", "1"), CBOX_QUICK, 40, 4),
         Case("mesh2", "u_y = -0.5, gamma = 1e-5, alpha_r = 1, medium mesh 2",
              ("--uy", "-0.5", "--steps", "50", "--mesh", "2"), CBOX_QUICK, 90, 5),
-        Case("uy1", "u_y = -1, gamma = 1e-5, alpha_r = 20, medium mesh 1",
-             ("--uy", "-1", "--alpha-r", "20", "--steps", "100"), ("--h", "0.1", "--steps", "20"), 150, 6))),
+        Case("uy1", "u_y = -1, gamma = 1e-5, alpha_r = 20, medium mesh 2",
+             ("--uy", "-1", "--alpha-r", "20", "--steps", "100", "--mesh", "2"), ("--h", "0.1", "--steps", "20"),
+             150, 6))),
     Example("box", "Box self-contact (§5.1)", "box_self_contact", "load", ("gap", "gap g at mid-span"), (
         Case("mesh1", "mesh 1, gamma = 1e-5, alpha_r = 1, huhu_lulu with exp(-5 J)",
              ("--mesh", "1", "--gamma", "1e-5", "--alpha-r", "1"), BOX_QUICK, 240, 5, vem_out=BOX_CASE_DIR),),
