@@ -75,16 +75,13 @@ def outcome(example: Example, summary: RunSummary | None) -> dict:
 
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if "--" not in argv:
-        raise SystemExit("usage: accuracy_case.py --record FILE --example KEY [--refine REGION:LEVELS ...] -- [demo options]")
-    split = argv.index("--")
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--record", type=pathlib.Path, required=True, help="where rank 0 writes the record (JSON)")
     p.add_argument("--example", choices=tuple(EXAMPLES), required=True)
     p.add_argument("--refine", type=refinement, nargs="*", default=[], metavar="REGION:LEVELS")
-    args = p.parse_args(argv[:split])
-    example, demo_argv = EXAMPLES[args.example], argv[split + 1:]
+    p.add_argument("demo_argv", nargs=argparse.REMAINDER, help="-- and the demo's options")
+    args = p.parse_args(argv)
+    example, demo_argv = EXAMPLES[args.example], args.demo_argv[1:] if args.demo_argv[:1] == ["--"] else args.demo_argv
     unknown = [r for r, _ in args.refine if r not in example.regions]
     if unknown:
         p.error(f"--refine: no region {', '.join(unknown)} in {args.example} (regions: {', '.join(example.regions)})")
