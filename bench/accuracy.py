@@ -71,8 +71,9 @@ class Interrupted(Exception):
     """Ctrl-C or SIGTERM during a run."""
 
 
-def launch(config: Config, out: pathlib.Path) -> dict:
-    """Make one run (a fresh process) and return its record, with the process's wall and CPU time."""
+def launch(config: Config, out: pathlib.Path) -> dict | None:
+    """Make one run (a fresh process) and return its record, with the process's wall and CPU time
+    (None if the process wrote none: it crashed, and the next invocation makes it again)."""
     (out / "logs").mkdir(parents=True, exist_ok=True)
     record_path(out, config).unlink(missing_ok=True)
     cpu_before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -91,7 +92,7 @@ def launch(config: Config, out: pathlib.Path) -> dict:
     cpu_after = resource.getrusage(resource.RUSAGE_CHILDREN)
     path = record_path(out, config)
     if not path.exists():
-        raise RuntimeError(f"run {config.name} wrote no record (exit code {code}); see {out / 'logs' / config.name}.log")
+        return None
     record = json.loads(path.read_text())
     record.update(process_wall_s=wall, process_cpu_s=(cpu_after.ru_utime + cpu_after.ru_stime)
                   - (cpu_before.ru_utime + cpu_before.ru_stime))
@@ -175,6 +176,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
             print(f"[{k + 1}/{len(configs)}] {c.name}: interrupted; the same command continues", flush=True)
             write_page(configs, records, args.out, args.quick, args.examples, args.results)
             return 130
+        if record is None:
+            print(f"[{k + 1}/{len(configs)}] {c.name}: no record (the process crashed, see "
+                  f"{args.out / 'logs' / c.name}.log); made again by the next invocation", flush=True)
+            continue
         records[c.name] = record
         print(f"[{k + 1}/{len(configs)}] {c.name}: {'full load' if record['converged'] else 'stopped'}, "
               f"{record['unknowns']} unknowns, {record['newton_iterations']} Newton its, "

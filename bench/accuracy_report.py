@@ -227,7 +227,17 @@ def markdown(results: typing.Sequence[ExampleResult], machine: dict, quick: bool
     out += summary_table(results)
     out += ["", "Criteria: full load, force within 1 % and gap within 5 % of the reference. Time = set-up (mesh, "
             "discretization, local refinement) + the load path (summary.json's wall time), wall clock of a fresh "
-            "process at 1 rank with the demo's defaults. Reference ± its estimated relative error."]
+            "process at 1 rank with the demo's defaults. Reference ± its estimated relative error.", "",
+            "Reference, per quantity: each method's converged uniform runs (mesh sizes halving) are extrapolated "
+            "by Richardson with the order observed on the finest three; its error estimate is the change of the "
+            "limit when the order is taken as 1 instead, or when the three levels are taken one level coarser "
+            "(the larger). Three levels whose differences change sign or do not shrink are not extrapolated: "
+            "the finest value, ± the larger of the last two differences. Two levels: order 1 assumed, ± the "
+            "change with order 2. The reference is the mean of the two methods' values, its error the largest "
+            f"of half their difference and their own errors; it is called sound when that error is at most "
+            f"{SOUND_FRACTION:.2g} of the criterion (1 % force, 5 % gap). Verdict per example: SFVEM when its "
+            "cheapest run meeting the criteria (uniform or locally refined) takes no longer than the FEM's "
+            "cheapest, or only it meets them; undecided when neither does."]
     for r in results:
         ex = EXAMPLES[r.key]
         options = " ".join(r.configs[0].argv[4:]) if r.configs else ""
