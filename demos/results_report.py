@@ -478,7 +478,7 @@ def machine() -> str:
 
 
 def differences(runs: typing.Sequence[Run], root: pathlib.Path) -> list[str]:
-    """Bullet points computed from the data, then the stated modelling choices and the TODOs."""
+    """Bullet points computed from the data, then the stated modelling choices."""
     items = _gap_differences(root) + _short_runs(root) + _method_differences(runs, root) \
         + _rank_differences(runs, root) + _projection_orders(root)
     return [f"- {item}" for item in items] + [""] + STATED + [""]
@@ -513,7 +513,7 @@ def _gap_differences(root: pathlib.Path) -> list[str]:
                      f"range {min(ratios):.2f} to {max(ratios):.2f}. "
                      + (f"Outside the paper's own spread over its three meshes for that row (or "
                         f"{GAP_FACTOR - 1:.0%} where that is smaller): {'; '.join(outside)}. "
-                        f"**TODO (maintainers): explain these.**" if outside else
+                        f"Not analysed." if outside else
                         f"Every one is within the paper's own spread over its three meshes for that row (or "
                         f"{GAP_FACTOR - 1:.0%} where that is smaller)."))
     return items
@@ -560,7 +560,7 @@ def _short_runs(root: pathlib.Path) -> list[str]:
     items += [f"Runs short of the full load: {'; '.join(f'{n} ({status(s, why=True)})' for n, s in failed.items())}."]
     items += [f"Why ({', '.join(names)}): {why}." for why, names in explained.items()]
     if unexplained:
-        items.append(f"Not analysed: {', '.join(unexplained)}. **TODO (maintainers): why.**")
+        items.append(f"Not analysed: {', '.join(unexplained)}.")
     return items
 
 
@@ -579,7 +579,7 @@ def _method_differences(runs: typing.Sequence[Run], root: pathlib.Path) -> list[
         note = "" if abs(known[worst]) <= METHOD_TOLERANCE else \
             f", above {METHOD_TOLERANCE:.0%}. Why: {ANALYSED_METHOD_DIFFERENCES[example.key]}" \
             if example.key in ANALYSED_METHOD_DIFFERENCES else \
-            f", above {METHOD_TOLERANCE:.0%}: **TODO (maintainers): explain**"
+            f", above {METHOD_TOLERANCE:.0%}, not analysed"
         items.append(f"{example.title}: SFVEM and FEM forces differ by at most {known[worst]:+.2%} "
                      f"({worst}){note}.")
     return items
@@ -594,7 +594,7 @@ def _rank_differences(runs: typing.Sequence[Run], root: pathlib.Path) -> list[st
     if not known:
         return []
     worst = max(known, key=lambda x: abs(x[1]))
-    verdict = "" if abs(worst[1]) <= RANK_TOLERANCE else " **TODO (maintainers): above 1e-6, explain.**"
+    verdict = "" if abs(worst[1]) <= RANK_TOLERANCE else " Above 1e-6, not analysed."
     return [f"1 rank vs N ranks: final forces agree to {abs(worst[1]):.1e} relative at worst ({worst[0]}).{verdict}"]
 
 
