@@ -420,7 +420,7 @@ class ContactProblem:
         return self.disc.cell_tags()
 
     def max_displacement(self) -> float:
-        """Largest nodal displacement magnitude max |u| over all ranks (collective)."""
+        """Largest nodal displacement magnitude ``max |u|`` over all ranks (collective)."""
         with self.x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)[:self.disc.n_owned_dofs // 2]
             local = float(np.sqrt((u ** 2).sum(axis=1)).max(initial=0.0))
