@@ -49,9 +49,7 @@ from petsc4py import PETSc
 
 from . import _compat
 from .discretization import AssemblyInfo
-
-if typing.TYPE_CHECKING:
-    from .equilibrium import Equilibrium
+from .equilibrium import Equilibrium
 
 #: options prefix of a problem's solvers unless the user gives another
 DEFAULT_PREFIX = "tmc_"
@@ -373,7 +371,8 @@ class SNESNewton:
         if result.converged:
             start.destroy()
             return result
-        start.copy(x)
+        start.copy(x)                             # owned values only: the ghosts hold the failed iterate's
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         start.destroy()
         self._set_line_search(FALLBACK_LINE_SEARCH)
         try:

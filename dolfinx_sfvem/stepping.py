@@ -10,7 +10,7 @@ A *control* decides the next point of the path and hands every attempt, converge
   balance and an arc-length constraint (limit points, snap-through).
 
 A control talks to the equilibrium solvers of the current mesh through a
-:class:`~dolfinx_sfvem.load_path.StepSolver` (``solver.x`` the state, ``solver.solve_at(λ)``
+:class:`~dolfinx_sfvem.step_solver.StepSolver` (``solver.x`` the state, ``solver.solve_at(λ)``
 Newton at fixed λ with the contact checks, and what arc-length needs); it keeps its own state
 (:meth:`Control.state`) so that a checkpoint continues a stopped run exactly.
 """
@@ -25,9 +25,8 @@ import numpy as np
 from petsc4py import PETSc
 
 from .snes import NewtonResult, SolveFailed
+from .step_solver import StepSolver
 
-if typing.TYPE_CHECKING:
-    from .load_path import StepSolver
 
 
 @dataclass
