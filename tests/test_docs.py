@@ -13,7 +13,7 @@ import sitegen  # noqa: E402
 
 def test_api_page_documents_every_public_name():
     page = sitegen.api_page(dolfinx_sfvem)
-    assert sitegen.documented_names(page) == set(dolfinx_sfvem.__all__)
+    assert set(dolfinx_sfvem.__all__) <= sitegen.documented_names(page)
 
 
 def test_a_name_in_no_group_still_gets_an_entry():
@@ -21,7 +21,7 @@ def test_a_name_in_no_group_still_gets_an_entry():
     package.__all__ = ["ContactProblem", "brand_new"]
     package.ContactProblem, package.brand_new = dolfinx_sfvem.ContactProblem, lambda: None
     page = sitegen.api_page(package)
-    assert "Other names" in page and sitegen.documented_names(page) == {"ContactProblem", "brand_new"}
+    assert "Other names" in page and {"ContactProblem", "brand_new"} <= sitegen.documented_names(page)
 
 
 def test_readme_links_point_at_files():
