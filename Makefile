@@ -1,11 +1,15 @@
 # Two commands do all the set-up on a fresh Debian 12 machine:
 #   make demo   install what is missing, then run the main demo
 #   make test   install what is missing, then run the tests (serial, then MPI on 2 ranks) on
-#               Debian's DOLFINx 0.5.2, then again on DOLFINx 0.11 (the dolfinx-solver-real wheel
-#               from PyPI) in a second venv, if the machine has a Python >= 3.12
+#               Debian's DOLFINx 0.5.2 and build the documentation site (make docs), then run the
+#               tests again on DOLFINx 0.11 (the dolfinx-solver-real wheel from PyPI) in a second
+#               venv, if the machine has a Python >= 3.12
+#   make docs   the documentation site (Sphinx, from Debian's packages) in out/docs; fails on warnings
 SHELL := /bin/bash
 DEBS := python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba \
         python3-scipy python3-matplotlib python3-pytest python3-sympy python3-venv openmpi-bin
+# the documentation site: Sphinx 5.3, MyST (the pages are Markdown) and the furo theme
+DOCS_DEBS := python3-sphinx python3-myst-parser furo
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
@@ -27,22 +31,25 @@ export OMP_NUM_THREADS := 1
 # the flags it needs (Open MPI: --oversubscribe, as root --allow-run-as-root; MPICH: none), see
 # dolfinx_sfvem/mpi_launcher.py
 mpi = launcher="$$($(1) dolfinx_sfvem/mpi_launcher.py -n $(NP))" && $$launcher $(1) $(2)
-# $(call serial-tests,PYTHON) and $(call mpi-tests,PYTHON): the whole suite, the tests marked mpi
-serial-tests = $(1) -m pytest -q -x tests
-mpi-tests = $(call mpi,$(1),-m pytest -q -m mpi -p no:cacheprovider tests)
-
-.PHONY: install install-dolfinx011 demo demo-dolfinx011 test test-serial test-mpi test-dolfinx011 \
-        test-dolfinx011-run bench results meshes clean
-
-install: $(STAMP)
-
-$(STAMP): pyproject.toml
-	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || echo $$p; done); \
+# $(call apt-install,PACKAGES): apt-get install those of the Debian PACKAGES that are missing
+# (sudo when not root)
+apt-install = missing=$$(for p in $(1); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "Installing Debian packages:" $$missing; \
 	  SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
+# $(call serial-tests,PYTHON) and $(call mpi-tests,PYTHON): the whole suite, the tests marked mpi
+serial-tests = $(1) -m pytest -q -x tests
+mpi-tests = $(call mpi,$(1),-m pytest -q -m mpi -p no:cacheprovider tests)
+
+.PHONY: install install-dolfinx011 demo demo-dolfinx011 test test-serial test-mpi test-dolfinx011 \
+        test-dolfinx011-run docs bench results meshes clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@$(call apt-install,$(DEBS))
 	[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
 	$(PY) -m pip install -q --no-deps --no-build-isolation -e .
 	touch $(STAMP)
@@ -65,7 +72,7 @@ demo: $(STAMP)
 demo-dolfinx011: $(STAMP011)
 	$(call mpi,$(PY011),$(DEMO)-dolfinx011)
 
-test: test-serial test-mpi test-dolfinx011
+test: test-serial test-mpi docs test-dolfinx011
 
 test-serial: $(STAMP)
 	$(call serial-tests,$(PY))
@@ -84,6 +91,14 @@ test-dolfinx011:
 test-dolfinx011-run: $(STAMP011)
 	$(call serial-tests,$(PY011))
 	$(call mpi-tests,$(PY011))
+
+# the documentation site (docs/conf.py) in $(OUT)/docs, index.html its start page: read from scratch
+# every time (-E), so that a warning is never hidden by an earlier build, and any warning fails it
+# (-W, all of them reported: --keep-going). Runs no demo and no notebook: seconds.
+docs: $(STAMP)
+	@$(call apt-install,$(DOCS_DEBS))
+	$(PY) -m sphinx -b html -E -q -W --keep-going docs $(OUT)/docs
+	@echo "documentation: $(OUT)/docs/index.html"
 
 # SFVEM vs P2 FEM up to 1.2e5 unknowns (about 25 min), kept in bench/results.{json,md}; then the
 # load paths of the four paper examples, SFVEM and FEM (about 15 min), kept in bench/loadpath.{json,md};

@@ -1,4 +1,4 @@
-"""Diagnose a stalled load step of demos/hertz.py (serial; docs/gamma-1e-6.md).
+"""Diagnose a stalled load step of demos/hertz.py (serial; docs/notes/2026-11-23-gamma-1e-6.md).
 
 From the checkpoint of a stopped run (``--from DIR``, the same options as that run), this
 measures at the last converged state and after a Newton solve to ``--target``:

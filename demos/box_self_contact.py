@@ -72,7 +72,7 @@ DOFs) 20-23 s, mesh 3 (19,818 DOFs) 44-142 s (more where cut-backs are needed); 
 regularization needs more Newton iterations). ``--steps`` scales this about linearly.
 
 Mesh 3 with the exp(-5 J) scaling (``--table2``): five of its nine runs stop before the full
-load at bifurcations near the cavity corners; what was measured is in docs/box-mesh3.md.
+load at bifurcations near the cavity corners; what was measured is in docs/notes/2026-11-23-box-mesh3.md.
 
 Examples::
 

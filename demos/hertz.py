@@ -32,12 +32,12 @@ Example (a few minutes on 2 ranks)::
 Load stepping: fixed increments of 1/steps by default here (``--no-fixed-increments`` for the
 library's adaptive ones). Once the cylinder presses on the block every step takes 10 to 20 Newton
 iterations whatever its length, so shorter adaptive steps cost more in total (h = 0.05: 179
-Newton iterations with 20 fixed steps, 401 with adaptive ones, docs/performance.md), and the
+Newton iterations with 20 fixed steps, 401 with adaptive ones, docs/notes/2026-11-23-performance-rounds.md), and the
 secant predictor saves almost nothing there (174).
 
 All shared demo options (``--method``, ``--steps``, ``--gamma``, ``--out``, ``--resume``, PETSc
 options) work as in the other demos. At gamma = 1e-6 Newton stalls just after contact
-(docs/gamma-1e-6.md, docs/hertz.md): the demo stops there and says so.
+(docs/notes/2026-11-23-gamma-1e-6.md, docs/hertz.md): the demo stops there and says so.
 """
 from __future__ import annotations
 

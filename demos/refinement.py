@@ -17,7 +17,7 @@ Studies (the demos' defaults unless listed):
 - soft punch (§5.3): h = 0.1, 0.05;
 - multiple objects (§5.4), BC 1: h = 0.04, 0.02;
 - a stiff cylinder on a soft block (``hertz.py``) at gamma = 1e-5 and 1e-6, h = 0.05, 0.03:
-  at gamma = 1e-6 Newton stalls after contact (docs/gamma-1e-6.md), so there a stop naming the
+  at gamma = 1e-6 Newton stalls after contact (docs/notes/2026-11-23-gamma-1e-6.md), so there a stop naming the
   limit is the honest outcome.
 
 Options: ``--quick`` (the coarsest two sizes of the C-box only, in ``<out>/refinement-quick``),

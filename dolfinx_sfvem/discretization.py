@@ -366,7 +366,7 @@ class Discretization(abc.ABC):
 
     def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
                     grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
-        """‖u − u_h‖_L2 and |u − u_h|_H1 = ‖∇u − ∇u_h‖_L2 over the mesh (collective), with u_h and
+        """``‖u − u_h‖_L2`` and ``|u − u_h|_H1 = ‖∇u − ∇u_h‖_L2`` over the mesh (collective), with u_h and
         ∇u_h of :meth:`quadrature_fields`.
 
         ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).

@@ -21,7 +21,7 @@ Every integrand is a polynomial of degree at most 3 in ξ (dead traction 2, pres
 stiffness 3, swept area 3), so the 2-point Gauss–Legendre rule (exact to degree 3) integrates
 all of them exactly; one point (exact to degree 1) would not. Work conjugates
 (:func:`traction_work`, :func:`swept_area`, :func:`dead_pressure_conjugate`) are sums over the
-given edges, hence additive over disjoint edge sets (sum them over MPI ranks). docs/loads.md
+given edges, hence additive over disjoint edge sets (sum them over MPI ranks). docs/guide/loads.md
 "Loads on boundary edges" has the derivations.
 
 Arrays are node-major: ``X``, ``u`` and ``f`` are (n_nodes, 2), ``f[k, i]`` is component i of

@@ -74,7 +74,7 @@ def linear_elastic_stiffness(vertices: npt.ArrayLike, young: float, poisson: flo
     -------
     K : (2(2N+1), 2(2N+1)) float64
         Stiffness in the DOF order [u_x(x_0), ..., u_x(x_{N-1}), u_x(m_0), ..., u_x(m_{N-1}),
-        (1/|E|) int_E u_x, then the same 2N+1 DOFs of u_y], x_i the vertices and m_i the
+        ``(1/|E|) int_E u_x``, then the same 2N+1 DOFs of u_y], x_i the vertices and m_i the
         midpoint of edge i (from x_i to x_{i+1}). Integrated exactly (polynomial integrand).
     l : int
         The degree used.

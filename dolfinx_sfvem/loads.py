@@ -19,7 +19,7 @@ cavity pressure   energy −p ∫ (J − 1) dΩ        p                        
 ================  ============================  ====================================  ==================================
 
 The boundary integrals are exact with two Gauss points per edge (:mod:`~dolfinx_sfvem.edge_loads`,
-docs/loads.md). Each bound load acts on the elements this rank owns, so a force is counted once.
+docs/guide/loads.md). Each bound load acts on the elements this rank owns, so a force is counted once.
 """
 from __future__ import annotations
 

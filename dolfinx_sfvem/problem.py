@@ -299,7 +299,7 @@ class ContactProblem:
         the body for p > 0. ``follower=True``: on the deformed boundary (direction and length
         follow the deformation, with its load stiffness in the tangent); False: a dead load on the
         reference normal. For a pressure inside a closed cavity of the mesh, fill it with third
-        medium and use :meth:`cavity_pressure` (docs/loads.md says when to use which)."""
+        medium and use :meth:`cavity_pressure` (docs/guide/loads.md says when to use which)."""
         return self._add_load(Pressure(name, self._where(where, name), self._finite(p, name, "p"), bool(follower)))
 
     def point_force(self, point: typing.Sequence[float], fx: float = 0.0, fy: float = 0.0,
@@ -422,7 +422,7 @@ class ContactProblem:
         return self.disc.cell_tags()
 
     def max_displacement(self) -> float:
-        """Largest nodal displacement magnitude max |u| over all ranks (collective)."""
+        """Largest nodal displacement magnitude ``max |u|`` over all ranks (collective)."""
         with self.x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)[:self.disc.n_owned_dofs // 2]
             local = float(np.sqrt((u ** 2).sum(axis=1)).max(initial=0.0))

@@ -18,7 +18,7 @@ afterwards, so nothing of this library stays in the database.
 Default line search: ``bt`` (one residual per Newton iteration when the full step is
 acceptable), and a solve that fails with it is repeated once from its start with
 :data:`FALLBACK_LINE_SEARCH` ``l2`` (about three residuals per iteration, robust at contact
-onset) before the caller cuts the increment back; measurements in docs/performance.md. A line
+onset) before the caller cuts the increment back; measurements in docs/notes/2026-11-23-performance-rounds.md. A line
 search given on the command line or from Python has no fallback.
 
 Default linear solver: MUMPS LDLᵀ (``pc_type cholesky``), which reports the inertia of the
@@ -178,16 +178,16 @@ class NewtonResult:
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Where Newton stalled: its smallest residual in units of ``atol`` and of the round-off level
-    eps F_c (None when ``snes_atol`` was given), and what that suggests (docs/gamma-1e-6.md)."""
+    eps F_c (None when ``snes_atol`` was given), and what that suggests (docs/notes/2026-11-23-gamma-1e-6.md)."""
     floor = min(norms)
     text = f"smallest residual {floor:.3e} = {floor / atol:.3g} x atol {atol:.3e}"
     if roundoff:
         text += f" = {floor / roundoff:.3g} x round-off eps*F_c {roundoff:.3e}"
     if floor > STALL_FACTOR * atol:
         return text + ("; not a round-off limit: the Newton step leaves the region where the tangent predicts "
-                       "the residual (e.g. a soft, strongly compressed medium; docs/gamma-1e-6.md)")
+                       "the residual (e.g. a soft, strongly compressed medium; docs/guide/troubleshooting.md)")
     return text + ("; stalled within 10 x atol: typical of a bifurcation or limit point of the load path "
-                   "(docs/gamma-1e-6.md)")
+                   "(docs/guide/troubleshooting.md)")
 
 
 def state_failure(info: AssemblyInfo) -> list[str]:

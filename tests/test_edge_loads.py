@@ -1,4 +1,4 @@
-"""Loads on boundary edges with quadratic traces (dolfinx_sfvem/edge_loads.py, docs/loads.md).
+"""Loads on boundary edges with quadratic traces (dolfinx_sfvem/edge_loads.py, docs/guide/loads.md).
 
 References are independent of the module: a 12-point Gauss rule written here, hand-integrated
 shape-function moments, exact resultants (Σ f = -p (x_end - x_start) × e_z, zero moment on a

@@ -1,4 +1,4 @@
-"""Loads ramped by the load factor (dolfinx_sfvem/loads.py, docs/loads.md): traction, pressure,
+"""Loads ramped by the load factor (dolfinx_sfvem/loads.py, docs/guide/loads.md): traction, pressure,
 point force, cavity pressure, body force, for the SFVEM and the FEM reference.
 
 - A dead traction and a follower or dead pressure on the end of a block give the homogeneous

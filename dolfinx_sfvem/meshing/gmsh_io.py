@@ -123,7 +123,9 @@ def from_gmsh(source: str | os.PathLike | None = None,
     """PolygonMesh of the 2D cells of a gmsh mesh, one polygon per cell.
 
     Triangles, quadrilaterals and any other 2D element type of fixed size are read as
-    polygons of their corner ("primary") nodes; higher-order nodes are ignored.
+    polygons of their corner ("primary") nodes; higher-order nodes are ignored. The mesh's
+    ``region_names`` (name -> tag) let :class:`~dolfinx_sfvem.ContactProblem` take materials keyed
+    by the physical groups' names. A gmsh session the caller has open stays open.
 
     Parameters
     ----------
@@ -134,9 +136,6 @@ def from_gmsh(source: str | os.PathLike | None = None,
         Read the surfaces of these 2D physical groups with these tags; a missing group is
         a ValueError naming it. Default: every 2D physical group, tagged by its number,
         or all surfaces with tag 0 if the model has no 2D physical group.
-
-    The mesh's ``region_names`` (name -> tag) let :class:`~dolfinx_sfvem.ContactProblem` take
-    materials keyed by the physical groups' names. A gmsh session the caller has open stays open.
     """
     if source is None:
         import gmsh
