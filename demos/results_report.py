@@ -607,11 +607,11 @@ def _projection_orders(root: pathlib.Path) -> list[str]:
     if not higher:
         return []
     most = max(higher, key=higher.get)
-    return [f"Projection order l: the paper uses l = 3; our rank check (docs/method.md §3, README \"Choice of l\") chose "
+    return [f"Projection order l: the paper uses l = 3; our rank check ([method.md](method.md) §3) chose "
             f"l > 3 in {len(higher)} of {len(made)} runs, on at most {higher[most]} of {made[most].discretization['polygons']} "
             f"polygons ({most}): polygons with 8 or more vertices (the paper's Eq. 40 also asks for l > 3 "
             f"there) or with several hanging nodes on one side, which keep spurious zero-energy modes at "
-            f"l = 3 (meshes/summary.md)."]
+            f"l = 3 (`meshes/summary.md`)."]
 
 
 def box_tables(root: pathlib.Path, docs: pathlib.Path) -> tuple[list[str], list[Check]]:
