@@ -222,7 +222,7 @@ def markdown(results: typing.Sequence[ExampleResult], machine: dict, quick: bool
            + (" (**--quick: a pipeline check on coarse meshes and small loads, not the benchmark**)" if quick else "")
            + f". Machine: {machine['cpu']}, 1 rank per run (OMP_NUM_THREADS=1), one run at a time, shared with "
            f"other jobs: 1-minute load average {min(loads, default=0):.1f} to {max(loads, default=0):.1f} "
-           f"over the runs. How it is measured: [docs/performance.md](../docs/performance.md) §10.", "",
+           f"over the runs. How the reference and the verdicts are made: below the summary table.", "",
            f"**Goal:** {goal(results)}.", ""]
     out += summary_table(results)
     out += ["", "Criteria: full load, force within 1 % and gap within 5 % of the reference. Time = set-up (mesh, "
