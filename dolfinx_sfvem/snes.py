@@ -373,7 +373,8 @@ class SNESNewton:
         if result.converged:
             start.destroy()
             return result
-        start.copy(x)
+        start.copy(x)                             # owned values only: the ghosts hold the failed iterate's
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         start.destroy()
         self._set_line_search(FALLBACK_LINE_SEARCH)
         try:

@@ -9,6 +9,7 @@ serially both are one rank and the tests still pass.
 Meshes are generated on rank 0 and broadcast, so that every rank holds the same polygons
 whatever gmsh does.
 """
+import dataclasses
 import functools
 
 import numpy as np
@@ -16,7 +17,7 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes
+from dolfinx_sfvem import meshes, snes as solver
 
 pytestmark = pytest.mark.mpi
 
@@ -105,3 +106,27 @@ def test_same_load_path_on_world_and_self(make_problem, rtol):
     errors = [relative_difference(a, b) for a, b in zip(u_world, u_self)] if WORLD.rank == 0 else None
     errors = WORLD.bcast(errors, root=0)
     assert len(errors) == len(steps_self) and max(errors) < rtol, errors
+
+
+def test_fallback_line_search_restarts_from_the_whole_start_state(monkeypatch):
+    """A Newton solve that fails with the default line search is repeated with the fallback from
+    its start state, ghost values included: here the first try leaves NaN in every local entry
+    (owned and ghost, as a diverged iterate can), and the load path must equal the plain one."""
+    plain_steps, plain_u = load_path(cbox_problem, WORLD)
+    original = solver.SNESNewton._solve_once
+    tries = []
+
+    def first_try_diverges(self, x, g, load):
+        result = original(self, x, g, load)
+        if tries:
+            return result
+        tries.append(load)
+        with x.localForm() as xl:
+            xl.array[:] = np.nan
+        return dataclasses.replace(result, converged=False, failure="diverged (test)")
+
+    monkeypatch.setattr(solver.SNESNewton, "_solve_once", first_try_diverges)
+    steps, u = load_path(cbox_problem, WORLD)
+    assert tries and [s["load"] for s in steps] == [s["load"] for s in plain_steps]
+    if WORLD.rank == 0:
+        assert max(relative_difference(a, b) for a, b in zip(u, plain_u)) < 1e-10
