@@ -5,7 +5,7 @@
 #               from PyPI) in a second venv, if the machine has a Python >= 3.12
 SHELL := /bin/bash
 DEBS := python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba \
-        python3-scipy python3-matplotlib python3-pytest python3-venv openmpi-bin
+        python3-scipy python3-matplotlib python3-pytest python3-sympy python3-venv openmpi-bin
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed

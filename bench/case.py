@@ -122,11 +122,13 @@ def assembly_parts(method: str) -> tuple[tuple[object, str, str], ...]:
     """(owner, function, part) of the pieces of one residual and one tangent assembly."""
     if method == "vem":
         return ((dolfinx_sfvem.vem, "residual_loop", "residual_loop"),
+                (dolfinx_sfvem.vem, "folded_elements", "injectivity_guard"),
                 (dolfinx_sfvem.vem, "tangent_loop", "tangent_loop"),
                 (dolfinx_sfvem._compat, "mat_set_values_coo", "matrix_insert"))
     return ((dolfinx.fem.petsc, "assemble_vector", "residual_form"),
             (dolfinx.fem, "assemble_scalar", "energy_form"),
             (dolfinx_sfvem._compat.CompiledExpression, "__call__", "det_F"),
+            (dolfinx_sfvem.fem, "folded_elements", "injectivity_guard"),
             (dolfinx.fem.petsc, "assemble_matrix", "tangent_form"))
 
 
@@ -134,10 +136,11 @@ def assembly_breakdown(method: str, residual: typing.Callable, jacobian: typing.
                        calls: int = 3) -> dict[str, list[float]]:
     """Wall time per call (ms) of the residual, the tangent and their pieces, on every rank.
 
-    Pieces: SFVEM compiled polygon loops and the COO insertion into the PETSc matrix (the
-    rest of the tangent is mostly ``MatAssembly``); FEM residual, energy and tangent forms
-    and det F at the quadrature points. Separate from the repeated timing (the wrappers
-    cost a few µs per call).
+    Pieces: SFVEM compiled polygon loops (force vector, energy and J in one pass) and the
+    COO insertion into the PETSc matrix (the rest of the tangent is mostly ``MatAssembly``);
+    FEM residual, energy and tangent forms and det F at the quadrature points and nodes;
+    both: the injectivity guard of the residual. Separate from the repeated timing (the
+    wrappers cost a few µs per call).
     """
     with instrument.StageTimer() as timer:
         for owner, name, part in assembly_parts(method):

@@ -15,8 +15,10 @@ import typing
 METHODS = ("vem", "fem")
 SETUP_STAGES = ("mesh", "discretization", "matrix")
 #: pieces of the assembly breakdown that are pure per-cell computation (no communication)
-COMPUTE_PARTS = {"vem": ("residual_loop", "tangent_loop"),
-                 "fem": ("residual_form", "energy_form", "det_F", "tangent_form")}
+COMPUTE_PARTS = {"vem": ("residual_loop", "injectivity_guard", "tangent_loop"),
+                 "fem": ("residual_form", "energy_form", "det_F", "injectivity_guard", "tangent_form")}
+#: pieces of the residual in the breakdown; the others are pieces of the tangent
+RESIDUAL_PARTS = ("residual_loop", "residual_form", "energy_form", "det_F", "injectivity_guard")
 
 DEFINITIONS = """\
 All times are wall times unless marked CPU.
@@ -38,13 +40,21 @@ All times are wall times unless marked CPU.
 - MPI speed-up: assembly time (residual + tangent) on 1 rank / on N ranks, largest size;
   "compute" speed-up: the same for the per-cell computation alone (SFVEM polygon loops,
   FEM form kernels; slowest rank), which shows whether the ranks got a full core each;
-- breakdown: share of the residual (tangent) time in the SFVEM compiled polygon loop and,
-  for the tangent, in the COO insertion into the PETSc matrix (1 rank, largest size);
+- breakdown: share of the residual (tangent) time in its pieces (1 rank, largest size, mean
+  of 3 calls): SFVEM compiled polygon loop (force vector, energy and J in one pass), COO
+  insertion into the PETSc matrix; FEM residual form, energy form, det F at the quadrature
+  points and nodes; both, the injectivity guard (folded and kinked solid elements);
+- force vector alone: the SFVEM/FEM ratio per unknown of the SFVEM polygon loop and the FEM
+  residual form from the breakdown, without the state checks (energy, J, guard) that both
+  residuals also deliver;
 - growth exponent: least-squares slope of log(assembly time) against log(polygons).
 
 Caveats: the machine may be shared (the load average before and after is recorded);
 minima over repeats and over two passes per size damp, but do not remove, slowdowns
-caused by other work, and the MPI speed-up is the most sensitive to them. Under MPI
+caused by other work, and the MPI speed-up is the most sensitive to them. With more
+runnable jobs than cores, a call longer than the scheduler's time slice (the SFVEM tangent
+of the largest quick box, 7 ms) is preempted on every repeat and its wall time grows while
+shorter calls escape: then the serial CPU-time ratio is the one to read. Under MPI
 the CPU times include Open MPI's busy waiting and are not used for the speed-up.
 """
 
@@ -164,9 +174,16 @@ def breakdown_shares(size: dict) -> dict[str, float]:
     out = {"residual_ms": parts["residual"], "jacobian_ms": parts["jacobian"]}
     for part, value in parts.items():
         if part not in ("residual", "jacobian"):
-            whole = "residual" if part in ("residual_loop", "residual_form", "energy_form", "det_F") else "jacobian"
+            whole = "residual" if part in RESIDUAL_PARTS else "jacobian"
             out[f"{part}_share_of_{whole}"] = value / parts[whole]
     return out
+
+
+def force_alone_ratio(vem: dict, fem: dict) -> float:
+    """SFVEM/FEM per unknown of the force vector alone: SFVEM polygon loop against FEM residual form
+    (breakdown, rank 0)."""
+    v, f = (s["assembly_breakdown_ms_per_rank"] for s in (vem, fem))
+    return (v["residual_loop"][0] / vem["unknowns"]) / (f["residual_form"][0] / fem["unknowns"])
 
 
 def cold_warm(cold: dict, warm: dict) -> dict:
@@ -202,6 +219,7 @@ def derive(main: dict, mpi: dict, startups: dict) -> dict:
                        "ratio_vem_over_fem": ratio_vem_over_fem(v, f)} for v, f in zip(vem, fem)],
             "growth_exponent_vem_vs_polygons": growth_exponent(vem),
             "breakdown_largest": {"vem": breakdown_shares(vem[-1]), "fem": breakdown_shares(fem[-1])},
+            "force_alone_ratio_largest": force_alone_ratio(vem[-1], fem[-1]),
             "load_path_largest": {"vem": load_path_summary(vem[-1]), "fem": load_path_summary(fem[-1])},
             "mpi_speedup": {m: mpi_speedup(runs[m]["sizes"][-1], mpi[geometry][m]["sizes"][0]) for m in METHODS},
         }
@@ -257,7 +275,8 @@ def key_figures(derived: dict, ranks: int) -> list[str]:
         r = g["sizes"][-1]["ratio_vem_over_fem"]
         lines.append(f"{geometry}, largest size ({g['sizes'][-1]['unknowns']['vem']} SFVEM unknowns): SFVEM/FEM "
                      f"assembly time per unknown {r['assembly_wall']:.2f} (residual {r['residual_wall']:.2f}, "
-                     f"tangent {r['jacobian_wall']:.2f}; CPU time {r['assembly_cpu']:.2f})")
+                     f"tangent {r['jacobian_wall']:.2f}; CPU time {r['assembly_cpu']:.2f}, residual "
+                     f"{r['residual_cpu']:.2f}, tangent {r['jacobian_cpu']:.2f})")
         s = g["mpi_speedup"]
         lines.append(f"{geometry}: assembly speed-up on {ranks} ranks, SFVEM {s['vem']['assembly']:.2f} "
                      f"(residual {s['vem']['residual']:.2f}, tangent {s['vem']['jacobian']:.2f}, computation "
@@ -265,9 +284,18 @@ def key_figures(derived: dict, ranks: int) -> list[str]:
                      f"{s['fem']['compute']:.2f})")
         b = g["breakdown_largest"]["vem"]
         lines.append(f"{geometry}, largest size, where SFVEM assembly time goes: residual {b['residual_ms']:.1f} ms, "
-                     f"{100 * b['residual_loop_share_of_residual']:.0f}% in the polygon loop; tangent "
+                     f"{100 * b['residual_loop_share_of_residual']:.0f}% in the polygon loop, "
+                     f"{100 * b['injectivity_guard_share_of_residual']:.0f}% in the injectivity guard; tangent "
                      f"{b['jacobian_ms']:.1f} ms, {100 * b['tangent_loop_share_of_jacobian']:.0f}% in the polygon "
                      f"loop, {100 * b['matrix_insert_share_of_jacobian']:.0f}% in the COO insertion")
+        b = g["breakdown_largest"]["fem"]
+        lines.append(f"{geometry}, largest size, where the FEM residual's time goes: {b['residual_ms']:.1f} ms, "
+                     f"{100 * b['residual_form_share_of_residual']:.0f}% in the residual form, "
+                     f"{100 * b['energy_form_share_of_residual']:.0f}% the energy form, "
+                     f"{100 * b['det_F_share_of_residual']:.0f}% det F, "
+                     f"{100 * b['injectivity_guard_share_of_residual']:.0f}% the injectivity guard; SFVEM/FEM per "
+                     f"unknown of the force vector alone (polygon loop / residual form) "
+                     f"{g['force_alone_ratio_largest']:.2f}")
         lp = g["load_path_largest"]
         v, f = lp["vem"], lp["fem"]
         lines.append(f"{geometry}, largest size, load path: SFVEM {v['wall']:.1f} s (assembly "

@@ -6,7 +6,10 @@ Every demo builds its parser with :func:`parser` (the options below), parses it 
 
 Shared options
 --------------
-``--method`` (vem or fem: the P2 FEM reference on a triangle mesh of the same geometry with about as many unknowns), ``--steps``, ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
+``--method`` (vem or fem: the P2 FEM reference on a triangle mesh of the same geometry with about
+as many unknowns), ``--steps`` (the first load-factor increment is 1/steps), ``--max-increment``,
+``--min-increment``, ``--fixed-increments``, ``--no-predictor`` (the load stepping of
+:class:`~dolfinx_sfvem.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
 regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
@@ -95,7 +98,20 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                 epilog=f"Arguments starting with a single '-' are PETSc options of the library's solvers, with their "
                        f"prefix {DEFAULT_PREFIX!r} (e.g. -{DEFAULT_PREFIX}snes_monitor -{DEFAULT_PREFIX}ksp_type gmres).")
     p.add_argument("--method", choices=METHODS, default=METHODS[0], help="discretization (default %(default)s)")
-    p.add_argument("--steps", type=positive_int, default=steps, help="number of load steps (default %(default)s)")
+    p.add_argument("--steps", type=positive_int, default=steps,
+                   help="the first load-factor increment is 1/steps; the increments then adapt to the Newton "
+                        "iterations, at most --max-increment (default %(default)s)")
+    p.add_argument("--max-increment", type=_number(float, lambda v: 0 < v <= 1, "a number in (0, 1]"), default=None,
+                   help="largest load-factor increment (default max(1/steps, 0.1): at least 10 points on the path)")
+    p.add_argument("--min-increment", type=positive_float, default=None,
+                   help="smallest load-factor increment of the automatic cut-back, <= 1/steps "
+                        "(default (1/steps)/2^10)")
+    p.add_argument("--fixed-increments", action=argparse.BooleanOptionalAction, default=False,
+                   help="every increment 1/steps (halved when a step fails) instead of increments that adapt to "
+                        "the Newton iterations")
+    p.add_argument("--predictor", action=argparse.BooleanOptionalAction, default=True,
+                   help="start each step from the secant extrapolation of the last two converged states "
+                        "(default: yes)")
     p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out") / name,
                    help="output directory (default %(default)s)")
     p.add_argument("--mesh", type=int, choices=tuple(meshes), default=meshes[0],
@@ -144,13 +160,6 @@ def add_uy(p: argparse.ArgumentParser, default: float, where: str, note: str = "
     """``--uy``: the prescribed vertical displacement of ``where`` at load factor 1."""
     p.add_argument("--uy", type=finite_float, default=default,
                    help=f"vertical displacement of {where} (default %(default)s{note})")
-
-
-def add_min_increment(p: argparse.ArgumentParser) -> None:
-    """``--min-increment``: the smallest load-factor increment of the cut-back (to ``solve``)."""
-    p.add_argument("--min-increment", type=positive_float, default=None,
-                   help="smallest load-factor increment of the automatic cut-back, <= 1/steps "
-                        "(default (1/steps)/2^10)")
 
 
 def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
@@ -271,8 +280,8 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
     adapt_options = ("adapt", "adapt_levels", "adapt_max_unknowns") if args.adapt is None else ()
     problem.parameters.update({k: v for k, v in vars(args).items()
                                if k not in ("out", "quiet", "resume", "pressure_at", *adapt_options)})
-    steps = None if "control" in solve_options else args.steps       # a control brings its own steps
-    result = problem.solve(steps, out=args.out, observers=observers, resume=args.resume is not None,
+    control = solve_options.pop("control", None) or load_stepping(args)
+    result = problem.solve(control=control, out=args.out, observers=observers, resume=args.resume is not None,
                            pressure_at=args.pressure_at, adapt=adaptivity(args),
                            petsc_options=petsc_options(args), **solve_options)
     if problem.comm.rank == 0:
@@ -281,6 +290,13 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'} | "
               f"wall time: {result.wall_time_s:.1f} s | dofs: {result.summary['dofs']}", flush=True)
     return 0 if result.converged else 1
+
+
+def load_stepping(args: argparse.Namespace) -> sf.LoadStepping:
+    """The load stepping of ``--steps``, ``--min-increment``, ``--max-increment``, ``--fixed-increments``
+    and ``--predictor``."""
+    return sf.LoadStepping(args.steps, min_increment=args.min_increment, max_increment=args.max_increment,
+                           adaptive=not args.fixed_increments, predictor=args.predictor)
 
 
 def petsc_options(args: argparse.Namespace) -> dict[str, str]:

@@ -113,7 +113,8 @@ BETA = paper.TABLE2_BETA
 #: options that only steer a sweep (not stored in the parameters of the single runs)
 SWEEP_OPTIONS = ("table2", "table3", "fig4", "meshes", "alpha_rs", "gammas", "regularizations", "retry_failed")
 #: parameters that must agree for a finished run to be reused by a sweep
-RUN_KEYS = ("method", "steps", "h", "uy", "mesh", "gamma", "alpha_r", "regularization", "beta", "fem_jump_penalty")
+RUN_KEYS = ("method", "steps", "fixed_increments", "predictor", "max_increment", "min_increment", "h", "uy", "mesh",
+            "gamma", "alpha_r", "regularization", "beta", "fem_jump_penalty")
 
 
 # --------------------------------------------------------------------------- command line

@@ -106,7 +106,6 @@ def make_parser() -> argparse.ArgumentParser:
                    help="1: block clamped at both ends, discs u_x = 0; 2: block clamped left, "
                         "simply supported right, discs u_x free (default %(default)s)")
     common.add_uy(p, -0.3, "the discs' flat tops", " = -3 x gap")
-    common.add_min_increment(p)
     return p
 
 
@@ -211,7 +210,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     atol = common.petsc_options(args).get("snes_atol", SNES_ATOL)    # a command-line -tmc_snes_atol wins
     problem.parameters["snes_atol"] = atol
     problem.petsc_options["snes_atol"] = atol
-    code = common.run(problem, args, observers, min_increment=args.min_increment)
+    code = common.run(problem, args, observers)
     u = problem.point_displacements()                     # collective; the last converged state
     if MPI.COMM_WORLD.rank == 0:
         plot_reaction(args.out)

@@ -91,7 +91,6 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--punch", choices=tuple(PUNCH), default="soft",
                    help="punch material: soft = block's K = 5/3, mu = 5/14; rigid = K = 500/3, mu = 500/14 "
                         "(default %(default)s)")
-    common.add_min_increment(p)
     return p
 
 
@@ -156,7 +155,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build and solve; returns the exit code (0 or 1)."""
     args = common.parse_args(make_parser(), argv)
     problem, observers = build(args)
-    code = common.run(problem, args, observers, min_increment=args.min_increment)
+    code = common.run(problem, args, observers)
     if MPI.COMM_WORLD.rank == 0:
         plot_reaction(args.out)
     return code

@@ -3,11 +3,12 @@
 After a converged load step, :meth:`ContactProblem.solve(..., adapt=Adaptivity(...))
 <dolfinx_sfvem.ContactProblem.solve>` asks the indicator which polygons to split, splits them
 once (:func:`~dolfinx_sfvem.refine.refine_mesh`; neighbours gain hanging nodes), carries the
-state over (:func:`~dolfinx_sfvem.refine.transfer_state`), re-balances it at the same load and
+state over (:func:`~dolfinx_sfvem.state_transfer.transfer_state`), re-balances it at the same load and
 goes on. Only third-medium polygons are split by choice (the closure of the refinement may split
 a neighbour whose hanging nodes would need a too high projection order). An indicator is any
 callable ``indicator(problem) -> (n_polygons,) bool`` over ``problem.mesh``, the same on every
-rank. docs/refinement-local.md has the measurements.
+rank, reading what :class:`ProblemState` lists (a :class:`~dolfinx_sfvem.ContactProblem` has it).
+docs/refinement-local.md has the measurements.
 """
 from __future__ import annotations
 
@@ -18,22 +19,33 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from petsc4py import PETSc
+
+from .contact import ContactPressure, Gap
+from .discretization import Discretization
+from .energy import Energy
+from .node_keys import sfvem_unknowns
 from .polygon_mesh import PolygonMesh
 from .refine import Refinement, refine_mesh
-from .space import _GlobalEdges
-
-if typing.TYPE_CHECKING:
-    from .problem import ContactProblem
-
-Indicator = typing.Callable[["ContactProblem"], npt.NDArray[np.bool_]]
 
 
-def sfvem_unknowns(mesh: PolygonMesh) -> int:
-    """Unknowns of the order-2 SFVEM on ``mesh``: 2 x (vertices + edge midpoints + polygon means)."""
-    return 2 * (mesh.n_points + _GlobalEdges(mesh).n_edges + mesh.n_polygons)
+class ProblemState(typing.Protocol):
+    """What the indicators read of a problem at its current state."""
+    mesh: PolygonMesh
+    materials: typing.Mapping[int, Energy]
+    disc: Discretization
+    x: PETSc.Vec
+    comm: MPI.Comm
+
+    def contact_gap(self) -> Gap: ...
+
+    def contact_pressure(self) -> ContactPressure: ...
 
 
-def smallest_J(problem: ContactProblem) -> npt.NDArray[np.float64]:
+Indicator = typing.Callable[[ProblemState], npt.NDArray[np.bool_]]
+
+
+def smallest_J(problem: ProblemState) -> npt.NDArray[np.float64]:
     """min over the quadrature points of J = det(I + Π⁰_l∇u) per polygon (n_polygons,), on every
     rank (collective; SFVEM only)."""
     space = problem.disc.space
@@ -48,7 +60,7 @@ def smallest_J(problem: ContactProblem) -> npt.NDArray[np.float64]:
     return out
 
 
-def medium_polygons(problem: ContactProblem) -> npt.NDArray[np.bool_]:
+def medium_polygons(problem: ProblemState) -> npt.NDArray[np.bool_]:
     """Mask (n_polygons,) of the third-medium polygons of ``problem.mesh``."""
     medium = [tag for tag, energy in problem.materials.items() if energy.is_medium]
     return np.isin(problem.mesh.tags, medium)
@@ -65,7 +77,7 @@ class Compression:
         if not 0.0 < self.J_below < 1.0:
             raise ValueError(f"Compression: J_below must lie in (0, 1), got {self.J_below!r}")
 
-    def __call__(self, problem: ContactProblem) -> npt.NDArray[np.bool_]:
+    def __call__(self, problem: ProblemState) -> npt.NDArray[np.bool_]:
         return medium_polygons(problem) & (smallest_J(problem) < self.J_below)
 
 
@@ -82,7 +94,7 @@ class NearContact:
         if not self.distance > 0.0:
             raise ValueError(f"NearContact: distance must be > 0, got {self.distance!r}")
 
-    def __call__(self, problem: ContactProblem) -> npt.NDArray[np.bool_]:
+    def __call__(self, problem: ProblemState) -> npt.NDArray[np.bool_]:
         gap, pressure = problem.contact_gap(), problem.contact_pressure()
         medium = medium_polygons(problem)
         if not gap.value < self.gap_below or not pressure.zone.any():
@@ -133,7 +145,7 @@ class Adaptivity:
         if not callable(self.indicator):
             raise ValueError(f"Adaptivity: the indicator must be a function of the problem, got {self.indicator!r}")
 
-    def refinement(self, problem: ContactProblem) -> Refinement | None:
+    def refinement(self, problem: ProblemState) -> Refinement | None:
         """The refinement of ``problem.mesh`` the indicator asks for at the current state within the
         limits, or None (collective: the same on every rank)."""
         mesh = problem.mesh

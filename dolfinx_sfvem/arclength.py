@@ -36,12 +36,11 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .run_summary import StepRecord
 from .snes import NewtonResult, SolveFailed, negative_pivots, state_failure
+from .step_solver import StepSolver
 from .stepping import Attempt, Control
 
-if typing.TYPE_CHECKING:
-    from .load_path import StepSolver
-    from .run_summary import StepRecord
 
 
 class ArcLength(Control):

@@ -18,8 +18,8 @@ import numpy.typing as npt
 
 from .meshing.gmsh_duals import GmshBuilder, dual_of_gmsh, gmsh_triangles, straight_region
 from .meshing.grids import axis_nodes, n_segments, quad_grid
-from .meshing.polygon_sets import PolygonSet, csr, glue, length_tolerance, next_in_polygon
-from .polygon_mesh import PolygonMesh
+from .meshing.polygon_sets import PolygonSet, csr, glue, length_tolerance
+from .polygon_mesh import PolygonMesh, next_entries
 
 
 #: region tag of the solid bodies (further solids: 3, 4, ...)
@@ -102,18 +102,12 @@ class Benchmark:
         """Mesh edges (k, 2) on the named segment or arc: pairs of vertex indices, each edge once,
         both ends on it and the edge on the outer boundary or on an interface between two regions
         (an arc's chords; a chord across a region, between two points of its arc, is not one)."""
-        mesh = self.mesh
-        start = mesh.vertices
-        end = start[next_in_polygon(mesh.offsets)]
-        key = np.minimum(start, end) * mesh.n_points + np.maximum(start, end)
-        tag = mesh.tags[mesh.polygon_of_entry()]
-        keys, first, where, count = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
-        low, high = np.full(keys.size, np.iinfo(np.int32).max), np.full(keys.size, np.iinfo(np.int32).min)
-        np.minimum.at(low, where, tag)
-        np.maximum.at(high, where, tag)
-        boundary = (count == 1) | (low != high)
+        mesh, sides = self.mesh, self.mesh.sides
+        _, first = np.unique(sides.edge, return_index=True)        # the first side of every edge
+        pairs = np.stack([sides.start[first], sides.end[first]], axis=1)
+        p, q = mesh.edge_polygons.T
+        boundary = (p < 0) | (q < 0) | (mesh.tags[p] != mesh.tags[q])
         on = self._on(name, mesh.points)
-        pairs = np.stack([start[first], end[first]], axis=1)
         return pairs[boundary & on[pairs[:, 0]] & on[pairs[:, 1]]]
 
     def nodes_on(self, name: str) -> np.ndarray:
@@ -380,7 +374,7 @@ def _round_chord_midpoints(polygons: PolygonSet, arcs: Sequence[Arc]) -> Polygon
     """
     points = polygons.points.copy()
     offsets, flat = csr(polygons.polygons)
-    following = flat[next_in_polygon(offsets)]
+    following = flat[next_entries(offsets)]
     v, m = np.concatenate([flat, following]), np.concatenate([following, flat])
     tol = length_tolerance(points)
     for arc in arcs:

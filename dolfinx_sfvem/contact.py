@@ -192,18 +192,12 @@ class SolidBoundary:
             raise ValueError(f"overlap tolerance must be a positive fraction of the mesh size, not {tolerance!r}")
         self.tolerance = float(tolerance)
         solid = np.isin(mesh.tags, list(solid_tags))
-        start, end, polygon = mesh._edges()
-        in_solid = solid[polygon]
-        medium_keys = np.minimum(start, end)[~in_solid] * mesh.n_points + np.maximum(start, end)[~in_solid]
-        a, b, polygon = start[in_solid], end[in_solid], polygon[in_solid]
-        n = mesh.n_points
-        key = np.minimum(a, b) * n + np.maximum(a, b)
-        unique, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+        sides = mesh.sides
+        in_solid = solid[sides.polygon]
+        a, b, polygon, across = (x[in_solid] for x in (sides.start, sides.end, sides.polygon, sides.neighbour))
         # bodies: solid polygons joined through shared edges
-        first_polygon = np.full(unique.size, -1, dtype=np.int64)
-        first_polygon[inverse[::-1]] = polygon[::-1]
-        shared = count[inverse] == 2
-        graph = scipy.sparse.coo_matrix((np.ones(int(shared.sum())), (polygon[shared], first_polygon[inverse[shared]])),
+        shared = (across >= 0) & solid[across]
+        graph = scipy.sparse.coo_matrix((np.ones(int(shared.sum())), (polygon[shared], across[shared])),
                                         shape=(mesh.n_polygons, mesh.n_polygons))
         _, component = scipy.sparse.csgraph.connected_components(graph, directed=False)
         solid_polygons = np.flatnonzero(solid)
@@ -212,9 +206,9 @@ class SolidBoundary:
         body[solid_polygons] = body_of
         self.n_bodies = int(body_of.max(initial=-1)) + 1
 
-        boundary = count[inverse] == 1
+        boundary = ~shared
         a, b, polygon = a[boundary], b[boundary], polygon[boundary]
-        faces_medium = np.isin(key[boundary], medium_keys)
+        faces_medium = across[boundary] >= 0
         vertices = np.unique(np.concatenate([a, b]))
         n_v, n_e = vertices.size, a.size
         ia, ib = np.searchsorted(vertices, a), np.searchsorted(vertices, b)

@@ -26,9 +26,7 @@ import typing
 from petsc4py import PETSc
 
 from .discretization import AssemblyInfo, Discretization
-
-if typing.TYPE_CHECKING:
-    from .loads import BoundLoad
+from .loads import BoundLoad
 
 
 class Equilibrium:
@@ -56,6 +54,8 @@ class Equilibrium:
         if len(set(names)) != len(names):
             raise ValueError(f"two loads share a name: {names}")
         constrained = disc.constraints.mask
+        for load in self.loads:
+            load.check_constraints(constrained)
         self.symmetric = all([load.symmetric_with(constrained) for load in self.loads])
         self._work = disc.create_vector()
         self._dead = None                  # Σ of the dead loads' forces (assembled once)

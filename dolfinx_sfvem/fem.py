@@ -48,10 +48,11 @@ import dolfinx.fem.petsc
 from . import _compat
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
-from .polygon_mesh import PolygonMesh
 from .injectivity import folded_elements, gather_count
 from .logs import quiet_compilers, say
-from .remesh import matched_triangulation, sfvem_unknowns, triangulate
+from .node_keys import sfvem_unknowns
+from .polygon_mesh import PolygonMesh, edge_key
+from .remesh import matched_triangulation, triangulate
 
 log = logging.getLogger(__name__)
 
@@ -200,8 +201,9 @@ class LagrangeDiscretization(Discretization):
         """Coordinates, output point and partition-independent key of every local node.
 
         Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
-        ``n_points + a n_points + b`` for the edge's points ``a < b``; of a Q2 cell-centre
-        node: ``n_points + n_points² + c`` for the input index ``c`` of its cell.
+        ``n_points + edge_key(a, b)`` (:func:`~dolfinx_sfvem.polygon_mesh.edge_key`, in
+        [0, n_points²)) for the edge's points ``a``, ``b``; of a Q2 cell-centre node:
+        ``n_points + n_points² + c`` for the input index ``c`` of its cell.
         """
         im = self.V.dofmap.index_map
         n_nodes = im.size_local + im.num_ghosts
@@ -212,8 +214,7 @@ class LagrangeDiscretization(Discretization):
         self.node_point[dofs[:, :n_vertices]] = vertex_point
         self.node_key = self.node_point.copy()
         for k, (a, b) in enumerate(_EDGE_VERTICES[n_vertices]):
-            ends = np.sort(vertex_point[:, [a, b]], axis=1)
-            self.node_key[dofs[:, n_vertices + k]] = n + ends[:, 0] * n + ends[:, 1]
+            self.node_key[dofs[:, n_vertices + k]] = self.midpoint_keys(vertex_point[:, a], vertex_point[:, b])
         if dofs.shape[1] > n_vertices + len(_EDGE_VERTICES[n_vertices]):     # Q2 cell centre
             self.node_key[dofs[:, -1]] = n + n * n + _compat.original_cell_index(self.mesh)
         self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :2].copy()
@@ -543,7 +544,7 @@ class LagrangeDiscretization(Discretization):
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the
         :attr:`output_mesh` points a and b (n,)."""
         n = self._output_mesh.n_points
-        return n + np.minimum(a, b) * n + np.maximum(a, b)
+        return n + edge_key(a, b, n)
 
     # ------------------------------------------------------------------ output
     @property

@@ -32,26 +32,31 @@ def _cross(ax, ay, bx, by):
 
 
 @numba.njit(cache=True)
-def _orientation(p, q, r):
+def _orientation(px, py, qx, qy, rx, ry):
     """Sign of the turn p -> q -> r: +1 left, -1 right, 0 collinear (exact zero only)."""
-    d = _cross(q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1])
+    d = _cross(qx - px, qy - py, rx - px, ry - py)
     return 1 if d > 0.0 else (-1 if d < 0.0 else 0)
 
 
 @numba.njit(cache=True)
-def segments_cross(p, q, r, s) -> bool:
-    """Whether the closed segments [p, q] and [r, s] (each (2,)) have a point in common."""
-    for k in range(2):                      # disjoint bounding boxes: no common point (the common case)
-        if max(p[k], q[k]) < min(r[k], s[k]) or max(r[k], s[k]) < min(p[k], q[k]):
-            return False
-    o1, o2 = _orientation(p, q, r), _orientation(p, q, s)
-    o3, o4 = _orientation(r, s, p), _orientation(r, s, q)
+def _on_segment(ax, ay, bx, by, cx, cy):
+    """Whether c, collinear with a and b, lies in the bounding box of [a, b]."""
+    return min(ax, bx) <= cx <= max(ax, bx) and min(ay, by) <= cy <= max(ay, by)
+
+
+@numba.njit(cache=True)
+def segments_cross(px, py, qx, qy, rx, ry, sx, sy) -> bool:
+    """Whether the closed segments [p, q] and [r, s] have a point in common (coordinates as
+    scalars: the guard's inner loop makes no array views)."""
+    if max(px, qx) < min(rx, sx) or max(rx, sx) < min(px, qx) or \
+            max(py, qy) < min(ry, sy) or max(ry, sy) < min(py, qy):
+        return False                        # disjoint bounding boxes: no common point (the common case)
+    o1, o2 = _orientation(px, py, qx, qy, rx, ry), _orientation(px, py, qx, qy, sx, sy)
+    o3, o4 = _orientation(rx, ry, sx, sy, px, py), _orientation(rx, ry, sx, sy, qx, qy)
     if o1 != o2 and o3 != o4:
         return True
-    for a, b, c, o in ((p, q, r, o1), (p, q, s, o2), (r, s, p, o3), (r, s, q, o4)):
-        if o == 0 and min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]):
-            return True
-    return False
+    return ((o1 == 0 and _on_segment(px, py, qx, qy, rx, ry)) or (o2 == 0 and _on_segment(px, py, qx, qy, sx, sy))
+            or (o3 == 0 and _on_segment(rx, ry, sx, sy, px, py)) or (o4 == 0 and _on_segment(rx, ry, sx, sy, qx, qy)))
 
 
 @numba.njit(cache=True)
@@ -68,11 +73,11 @@ def _signed_area(y, loop, k0, n):
 def _self_crossing(y, loop, k0, n):
     """Whether two non-adjacent segments of the closed polyline y[loop[k0:k0 + n]] meet."""
     for a in range(n):
-        p, q = y[loop[k0 + a]], y[loop[k0 + (a + 1) % n]]
-        for b in range(a + 2, n):
-            if a == 0 and b == n - 1:
-                continue                      # adjacent through the closing segment
-            if segments_cross(p, q, y[loop[k0 + b]], y[loop[k0 + (b + 1) % n]]):
+        i, j = loop[k0 + a], loop[k0 + (a + 1) % n]
+        px, py, qx, qy = y[i, 0], y[i, 1], y[j, 0], y[j, 1]
+        for b in range(a + 2, n - 1 if a == 0 else n):      # a = 0, b = n - 1: adjacent through the closing segment
+            r, s = loop[k0 + b], loop[k0 + (b + 1) % n]
+            if segments_cross(px, py, qx, qy, y[r, 0], y[r, 1], y[s, 0], y[s, 1]):
                 return True
     return False
 

@@ -25,63 +25,27 @@ import pathlib
 import signal
 import time
 import typing
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 from petsc4py import PETSc
 
 from .adaptivity import Adaptivity
-from .contact import ContactPressure, Gap
 from .equilibrium import Equilibrium
 from .interrupt import StopRequest
 from .logs import say
 from .loads import VectorLoad
 from .run_output import RunWriter, progress_line, read_checkpoint
-from .run_summary import STOPPED_BY_SIGNAL, StepRecord
+from .run_summary import STOPPED_BY_SIGNAL, Observer, Result, StepRecord
+from .problem import ContactProblem
 from .snes import NewtonResult, SNESNewton, SolveFailed
+from .step_solver import StepSolver
 from .stepping import Attempt, Control, LoadStepping
-
-if typing.TYPE_CHECKING:
-    from .problem import ContactProblem
 
 log = logging.getLogger(__name__)
 
-#: an observer returns one number, or several named ones
-Observer = typing.Callable[[typing.Any], typing.Union[float, typing.Mapping[str, float]]]
 #: steps of the residual relaxation of :meth:`LoadPath._rebalance` (cut back down to a quarter of one)
 RELAX_STEPS = 4
-
-
-@dataclass
-class Result:
-    """Outcome of a load path (:meth:`ContactProblem.solve`).
-
-    Attributes
-    ----------
-    converged : bool
-        The load factor ``until`` (default 1, the full load) was reached, or the arc-length's
-        stop criterion met (and no solids overlap).
-    load : float
-        Load factor of the last converged step.
-    steps : list of dict
-        The converged steps, in order (``summary.json``'s records: ``load``, ``reaction``
-        ``{name: [R_x, R_y]}``, ``loads`` ``{name: {magnitude, displacement}}``, ``gap``,
-        ``extra`` (observers), ...).
-    attempts : list of dict
-        Every attempted step, failed ones included (``converged`` False, with ``failure``).
-    wall_time_s : float
-    summary : dict
-        The content of summary.json.
-    message : str
-        Why the run stopped ("" if it converged).
-    """
-    converged: bool
-    load: float
-    steps: list[dict]
-    attempts: list[dict]
-    wall_time_s: float
-    summary: dict
-    message: str = ""
 
 
 def observe(problem: ContactProblem, observers: typing.Mapping[str, Observer]) -> dict[str, float]:
@@ -94,58 +58,6 @@ def observe(problem: ContactProblem, observers: typing.Mapping[str, Observer]) -
         else:
             values[name] = float(value)
     return values
-
-
-class StepSolver:
-    """The equilibrium solvers of the problem's current mesh, as the controls use them.
-
-    Attributes
-    ----------
-    x : PETSc.Vec
-        The state (the problem's), updated in place by the solves.
-    equilibrium : Equilibrium
-        R(u; λ), its tangent and load vector, loads bound to the current discretization.
-    newton : SNESNewton
-        Newton's method at a fixed load factor; its KSP factorizes the tangent.
-    final : (k,) array
-        Values at load factor 1 of the owned constrained unknowns (the prescribed
-        displacements are ``λ final``).
-    dofs_of : dict
-        The unknowns of every boundary condition (reactions).
-    contact : (Gap, ContactPressure) or None
-        Of the last accepted state.
-    """
-
-    def __init__(self, problem: ContactProblem, petsc_options: typing.Mapping[str, typing.Any] | None):
-        self.problem = problem
-        constraints = problem.constraints()
-        problem.disc.set_constraints(constraints.dofs)
-        self.final = constraints.final
-        self.dofs_of = constraints.dofs_of
-        self.equilibrium = problem.equilibrium()
-        self.newton = SNESNewton(self.equilibrium, petsc_options, problem.petsc_options_prefix)
-        self.x = problem.x
-        self.contact: tuple[Gap, ContactPressure] | None = None
-
-    def solve_at(self, load: float) -> NewtonResult:
-        """Newton's solve for the load factor ``load`` from :attr:`x` (constrained values
-        ``load * final``), then :meth:`accept`."""
-        return self.accept(self.newton.solve(self.x, load * self.final, load))
-
-    def accept(self, result: NewtonResult) -> NewtonResult:
-        """A converged state whose solids overlap is rejected (``converged`` False, ``failure``
-        says where); keeps the accepted state's contact quantities."""
-        if result.converged:
-            self.contact = self.problem.contact_state()
-            gap = self.contact[0]
-            if gap.overlapping:
-                result.converged = False
-                result.failure = (f"solids overlap: {gap.describe()} (more than "
-                                  f"{self.problem.boundary.tolerance:g} times the local edge length)")
-        return result
-
-    def destroy(self) -> None:
-        self.newton.destroy()
 
 
 class LoadPath:
@@ -197,7 +109,7 @@ class LoadPath:
         with StopRequest(self.handle_signals) as stop:
             try:
                 while True:
-                    solver = StepSolver(p, self.petsc_options)
+                    solver = self._step_solver()
                     converged_x = p.x.copy()             # the state to go back to on KeyboardInterrupt
                     if not transferred:
                         self._check_initial_state()      # a transferred state is checked by re-balancing
@@ -254,6 +166,15 @@ class LoadPath:
         if signalled:
             message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {p.load:.6g}"
         return self._finish(writer, message)
+
+    def _step_solver(self) -> StepSolver:
+        """The solvers of the problem's current mesh, its constraints registered."""
+        p = self.problem
+        constraints = p.constraints()
+        p.disc.set_constraints(constraints.dofs)
+        equilibrium = p.equilibrium()
+        return StepSolver(equilibrium, SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix), p.x,
+                          constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
 
     def _wall(self) -> float:
         return time.perf_counter() - self.t_start + self.earlier_wall_time
@@ -425,7 +346,7 @@ class _Relaxation:
         self.x = solver.x
         self.equilibrium = Equilibrium(disc, [VectorLoad("relaxation", disc, r0, 1.0)])
         self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix)
-        self.g = solver.problem.load * solver.final
+        self.g = solver.equilibrium.load * solver.final
 
     def solve_at(self, s: float) -> NewtonResult:
         return self.newton.solve(self.x, self.g, 1.0 - s)

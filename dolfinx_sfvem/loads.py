@@ -81,6 +81,10 @@ class BoundLoad(abc.ABC):
         (n_local_dofs,)) are eliminated (collective)."""
         return True
 
+    def check_constraints(self, constrained: np.ndarray) -> None:
+        """ValueError if the load needs constraints that the unknowns ``constrained`` (local mask
+        (n_local_dofs,)) lack (collective)."""
+
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
         """f += the load's nodal forces at λ = 1, at the local displacements u (n_local_nodes, 2)
         (None: the reference state), into the local array f (n_local_nodes, 2); only what this
@@ -190,10 +194,11 @@ class _BoundCavityPressure(BoundLoad):
 
     is_energy = True
 
-    def __init__(self, name: str, disc: Discretization, term: EnergyTerm, p: float):
+    def __init__(self, name: str, disc: Discretization, term: EnergyTerm, p: float, open_edges: np.ndarray):
         super().__init__(name, disc)
         self.term = term
         self.p = p
+        self.open_edges = open_edges       # (n, 3) local nodes of its edges on the mesh boundary
         x, work = disc.create_vector(), disc.create_vector()
         x.set(0.0)
         disc.term_force(term, x, work, {"p": p})
@@ -207,6 +212,18 @@ class _BoundCavityPressure(BoundLoad):
     def add_energy_force(self, x: PETSc.Vec, f: PETSc.Vec, work: PETSc.Vec) -> None:
         self.disc.term_force(self.term, x, work, {"p": self.p})
         f.axpy(-1.0, work)
+
+    def check_constraints(self, constrained: np.ndarray) -> None:
+        """ValueError naming an edge of the region on the mesh boundary whose nodes do not all have
+        the displacement normal to it (u_y on y = const, u_x on x = const) constrained."""
+        component = _normal_component(self.disc.x_nodes, self.open_edges)
+        free = ~constrained[2 * self.open_edges + component[:, None]].all(axis=1)
+        edge = _first_edge(self.disc, self.open_edges, free)
+        if edge is not None:
+            text, normal = edge
+            raise ValueError(f"cavity pressure {self.name!r}: region {self.term.tag} is not closed: its edge {text} "
+                             f"lies on the boundary of the mesh without u_{'xy'[normal]} fixed at its nodes (a "
+                             "symmetry line closes a cavity only with its normal displacement fixed)")
 
     def measure(self, x: PETSc.Vec, load: float) -> dict[str, float]:
         work = self.disc.create_vector()
@@ -223,21 +240,6 @@ def _largest_entry(load: BoundLoad, u: np.ndarray | None) -> float:
 
 
 # --------------------------------------------------------------------------- edge selection
-class _Sides:
-    """The polygon sides of a mesh (each interior edge twice), their edge keys and the keys of
-    the boundary edges (sides of one polygon)."""
-
-    def __init__(self, mesh):
-        self.start, self.end, self.polygon = mesh._edges()
-        self._n = mesh.n_points
-        self.keys = self.key(self.start, self.end)
-        unique, count = np.unique(self.keys, return_counts=True)
-        self.boundary_keys = unique[count == 1]
-
-    def key(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return np.minimum(a, b) * self._n + np.maximum(a, b)
-
-
 def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     """The boundary edges [a, m, b] (local nodes, body on the left, (n_e, 3) int64) of the
     elements this rank owns that ``where`` selects (collective).
@@ -250,7 +252,6 @@ def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     """
     offsets, loop, element = disc.element_loops
     mesh = disc.output_mesh
-    sides = _Sides(mesh)
     n_sides = np.diff(offsets) // 2
     first = np.repeat(offsets[:-1], 2 * n_sides)[::2]
     k = np.arange(offsets[-1] // 2) - np.repeat(offsets[:-1] // 2, n_sides)
@@ -258,7 +259,7 @@ def boundary_edges(disc: Discretization, where: Where, name: str) -> np.ndarray:
     m = loop[first + 2 * k + 1]
     b = loop[first + (2 * k + 2) % np.repeat(2 * n_sides, n_sides)]
     edges = np.stack([a, m, b], axis=1).astype(np.int64)
-    on_boundary = np.isin(sides.key(disc.node_point[a], disc.node_point[b]), sides.boundary_keys)
+    on_boundary = np.isin(mesh.edge_index(disc.node_point[a], disc.node_point[b]), mesh.boundary_edges)
     if callable(where):
         marked = np.asarray(where(disc.x_nodes.T), dtype=bool).reshape(-1)
         chosen = marked[a] & marked[m] & marked[b]
@@ -369,7 +370,12 @@ class PointForce(Load):
 @dataclass(frozen=True)
 class CavityPressure(Load):
     """Pressure ``p`` of a gas in a closed cavity filled with third medium (region ``tag``): the
-    energy term −λ p ∫ (J − 1) dΩ over the region, the work of p on the cavity's area change."""
+    energy term −λ p ∫ (J − 1) dΩ over the region, the work of p on the cavity's area change.
+
+    The region may end on the mesh boundary along symmetry lines x = const or y = const whose
+    normal displacement is fixed (a half or quarter model): there the term's traction
+    −p cof(F) N is normal to the line, taken by the constraint, and the region's area change is
+    that of the symmetric part of the cavity."""
     tag: int
     p: float
 
@@ -378,14 +384,17 @@ class CavityPressure(Load):
         if energy is None or not energy.is_medium:
             raise ValueError(f"cavity pressure {self.name!r}: region {self.tag} is not a third-medium region "
                              "(fill the cavity with a ThirdMedium and give its tag)")
-        open_edge = open_boundary_edge(disc.output_mesh, self.tag)
-        if open_edge is not None:
-            (x0, y0), (x1, y1) = open_edge
-            raise ValueError(f"cavity pressure {self.name!r}: region {self.tag} is not closed: its edge "
-                             f"({x0:g}, {y0:g})-({x1:g}, {y1:g}) lies on the boundary of the mesh (a cavity "
-                             "must be enclosed by other regions; use pressure() on an open boundary)")
+        open_edges = np.empty((0, 3), dtype=np.int64)
+        if open_boundary_edge(disc.output_mesh, self.tag) is not None:     # same answer on every rank
+            open_edges = boundary_edges(disc, (self.tag,), self.name)
+            skew = _first_edge(disc, open_edges, _normal_component(disc.x_nodes, open_edges) < 0)
+            if skew is not None:
+                raise ValueError(f"cavity pressure {self.name!r}: region {self.tag} is not closed: its edge {skew[0]} "
+                                 "lies on the boundary of the mesh off the x and y directions (a cavity must be "
+                                 "enclosed by other regions or by symmetry lines x = const or y = const; use "
+                                 "pressure() on an open boundary)")
         term = disc.add_energy_term(self.tag, VolumeWork(p=0.0, uses_gradient=energy.uses_gradient))
-        return _BoundCavityPressure(self.name, disc, term, float(self.p))
+        return _BoundCavityPressure(self.name, disc, term, float(self.p), open_edges)
 
     def describe(self) -> dict[str, typing.Any]:
         return {"kind": "cavity pressure", "region": self.tag, "p": self.p}
@@ -393,12 +402,31 @@ class CavityPressure(Load):
 
 def open_boundary_edge(mesh, tag: int) -> tuple[tuple[float, float], tuple[float, float]] | None:
     """The end points of an edge of region ``tag`` on the boundary of ``mesh``, or None."""
-    sides = _Sides(mesh)
-    mine = (mesh.tags[sides.polygon] == tag) & np.isin(sides.keys, sides.boundary_keys)
+    sides = mesh.sides
+    mine = (mesh.tags[sides.polygon] == tag) & (sides.neighbour < 0)
     if not mine.any():
         return None
     i = int(np.argmax(mine))
     return tuple(mesh.points[sides.start[i]]), tuple(mesh.points[sides.end[i]])
+
+
+def _normal_component(X: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Per edge [a, m, b] (local nodes, coordinates X (n, 2)): the component normal to it, 1 for an
+    edge along x (y = const), 0 for one along y (x = const), -1 for any other direction."""
+    d = np.abs(X[edges[:, 2]] - X[edges[:, 0]])
+    flat = 1e-10 * d.max(axis=1)
+    return np.where(d[:, 1] <= flat, 1, np.where(d[:, 0] <= flat, 0, -1))
+
+
+def _first_edge(disc: Discretization, edges: np.ndarray, chosen: np.ndarray) -> tuple[str, int] | None:
+    """The first of ``edges`` with ``chosen`` over all ranks, as ``"(x0, y0)-(x1, y1)"`` and its
+    :func:`_normal_component`; None if none is chosen (collective)."""
+    X = disc.x_nodes
+    first = edges[chosen][:1]
+    found = [(f"({X[a, 0]:g}, {X[a, 1]:g})-({X[b, 0]:g}, {X[b, 1]:g})", int(_normal_component(X, first)[0]))
+             for a, _, b in first]
+    found = [f for part in disc.comm.allgather(found) for f in part]
+    return found[0] if found else None
 
 
 def point_node(disc: Discretization, point: typing.Sequence[float], name: str) -> int | None:
@@ -410,7 +438,7 @@ def point_node(disc: Discretization, point: typing.Sequence[float], name: str) -
         If ``point`` is not a polygon vertex or edge midpoint of the mesh, naming the nearest one.
     """
     mesh = disc.output_mesh
-    sides = _Sides(mesh)
+    sides = mesh.sides
     candidates = np.concatenate([mesh.points, 0.5 * (mesh.points[sides.start] + mesh.points[sides.end])])
     distance = np.linalg.norm(candidates - np.asarray(point, dtype=np.float64), axis=1)
     nearest = int(np.argmin(distance))

@@ -1,4 +1,4 @@
-"""Polygonal meshes: validation, hanging nodes, sub-triangulation, DOLFINx triangle mesh.
+"""Polygonal meshes: validation, hanging nodes, topology (sides, edges), sub-triangulation, DOLFINx mesh.
 
 A :class:`PolygonMesh` holds points, counter-clockwise polygon vertex lists (CSR) and
 one region tag per polygon. Construction validates the mesh and rejects it with a
@@ -15,6 +15,11 @@ points used by polygons (``RTOL`` from :mod:`dolfinx_sfvem.polygon`). Points clo
 than ``tol`` coincide, a point within ``tol`` of an edge lies on it, polygons with area
 at most ``tol`` times their diameter are degenerate, sub-triangles have heights > ``tol``.
 
+Topology, computed once on first use (a PolygonMesh is not modified after construction):
+the *sides* of the polygons (one per vertex entry, to the next vertex counter-clockwise), the
+undirected *edges* (a side shared by two polygons is one edge) numbered in the order of
+:func:`edge_key`, the polygons on either side of every edge, the boundary edges.
+
 The pairwise checks (coincident points, T-junctions, edge contacts, edge midpoints
 inside other polygons) find candidate pairs through a sparse uniform grid (cells of
 about the mean edge length, only occupied cells stored) over bounding boxes, compiled
@@ -23,7 +28,9 @@ with numba: O(n log n) for meshes with bounded local size variation.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from functools import cached_property
+from typing import NamedTuple
 
 import dolfinx.mesh
 import numba
@@ -34,9 +41,6 @@ from mpi4py import MPI
 from . import _compat
 from .polygon import (FAILED, FAN, RTOL, centroid, diameter, point_location, point_segment_distance,
                       ear_clipping, segment_distance, self_intersection, signed_area, sub_triangulation)
-
-if TYPE_CHECKING:
-    from .refine import Refinement
 
 # status codes of _orient_and_check
 _OK, _REPEATED, _ZERO_AREA, _SELF_INTERSECTION = 0, 1, 2, 3
@@ -404,9 +408,65 @@ def _locate(x, points, offsets, vertices, tol):
     return found
 
 
+# --------------------------------------------------------------------------- CSR topology
 def _owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Segment index of every entry of a CSR array with these offsets, (offsets[-1],)."""
     return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
+
+
+def concatenated_ranges(starts: npt.NDArray[np.int64], lengths: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Concatenation of ``arange(s, s + n)`` over the pairs of ``starts`` and ``lengths`` (k,):
+    (lengths.sum(),) int64. With CSR offsets: the entries of a set of polygons."""
+    total = int(lengths.sum())
+    shift = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
+    return (shift + np.arange(total)).astype(np.int64)
+
+
+def next_entries(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Position (offsets[-1],) int64 of the next vertex of the same polygon, counter-clockwise,
+    for every entry of a CSR vertex array with these offsets (the last vertex is followed by the first)."""
+    nxt = np.arange(1, offsets[-1] + 1, dtype=np.int64)
+    nxt[offsets[1:] - 1] = offsets[:-1]
+    return nxt
+
+
+def previous_entries(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Position (offsets[-1],) int64 of the previous vertex of the same polygon (clockwise) for
+    every entry of a CSR vertex array with these offsets: the inverse of :func:`next_entries`."""
+    previous = np.arange(-1, offsets[-1] - 1, dtype=np.int64)
+    previous[offsets[:-1]] = offsets[1:] - 1
+    return previous
+
+
+def edge_key(a: npt.ArrayLike, b: npt.ArrayLike, n_points: int) -> npt.NDArray[np.int64]:
+    """Key of the undirected edges between points ``a`` and ``b`` (same shape) of a mesh with
+    ``n_points`` points: ``min(a, b) * n_points + max(a, b)``, the same for both directions,
+    ordered as the pairs (lower, higher end point)."""
+    return np.minimum(a, b) * n_points + np.maximum(a, b)
+
+
+class Sides(NamedTuple):
+    """The directed sides of the polygons of a :class:`PolygonMesh`, one per entry of its
+    vertex array (in that order): side k runs from vertex entry k to the next one of its
+    polygon, counter-clockwise. Every array is (offsets[-1],) int64.
+
+    Attributes
+    ----------
+    start, end
+        End points (point indices).
+    polygon
+        The polygon the side belongs to.
+    edge
+        Its undirected edge (:meth:`PolygonMesh.edge_index`).
+    neighbour
+        The polygon on the other side of the edge (the one holding the reverse side), -1 on
+        the boundary of the mesh.
+    """
+    start: npt.NDArray[np.int64]
+    end: npt.NDArray[np.int64]
+    polygon: npt.NDArray[np.int64]
+    edge: npt.NDArray[np.int64]
+    neighbour: npt.NDArray[np.int64]
 
 
 def _first_pair(pi: npt.NDArray[np.int64], pj: npt.NDArray[np.int64]) -> int:
@@ -484,7 +544,7 @@ class PolygonMesh:
         self.tol = RTOL * float(np.hypot(*(used.max(axis=0) - used.min(axis=0))))
         self.offsets, self.vertices = offsets, vertices
         self._check_polygons()
-        e0, e1, _ = self._edges()
+        e0, e1, _ = self._current_sides()
         h = float(np.hypot(*(self.points[e1] - self.points[e0]).T).mean())  # bucket-grid cell size
         self._check_cracks(h)
         self.n_inserted_hanging_nodes = self._repair_t_junctions(insert_hanging_nodes, h)
@@ -501,11 +561,10 @@ class PolygonMesh:
             self.points, self.offsets, self.vertices, self.tol, self.triangles, self.triangle_offsets)
 
     # ----------------------------------------------------------------------- validation steps
-    def _edges(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-        """Start point, end point and polygon of every edge (= entry of :attr:`vertices`), each (offsets[-1],)."""
-        nxt = np.arange(1, self.vertices.size + 1)
-        nxt[self.offsets[1:] - 1] = self.offsets[:-1]
-        return self.vertices, self.vertices[nxt], self.polygon_of_entry()
+    def _current_sides(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """Start point, end point and polygon of every side of the vertex lists as they are during
+        validation (not cached: T-junction repair changes them), each (offsets[-1],)."""
+        return self.vertices, self.vertices[next_entries(self.offsets)], self.polygon_of_entry()
 
     def _check_polygons(self) -> None:
         """Orient counter-clockwise; repeated vertices, zero area, self-intersection."""
@@ -548,7 +607,7 @@ class PolygonMesh:
     def _repair_t_junctions(self, insert: bool, h: float) -> int:
         """Insert every vertex lying inside another polygon's edge into that polygon, in order
         along the edge (or raise if ``insert`` is False). Returns the number of insertions."""
-        e0, e1, edge_polygon = self._edges()
+        e0, e1, edge_polygon = self._current_sides()
         used = np.unique(self.vertices)
         edge_boxes = np.hstack([np.minimum(self.points[e0], self.points[e1]) - self.tol,
                                 np.maximum(self.points[e0], self.points[e1]) + self.tol])
@@ -576,7 +635,7 @@ class PolygonMesh:
         another polygon. With simple polygons and no cracks this excludes every overlap: an edge
         that neither crosses nor touches another polygon's boundary lies entirely inside or outside
         it, so its midpoint decides (a vertex inside another polygon implies such an edge)."""
-        e0, e1, edge_polygon = self._edges()
+        e0, e1, edge_polygon = self._current_sides()
         key = e0 * self.n_points + e1
         order = np.argsort(key, kind="stable")
         dup = np.flatnonzero(key[order][1:] == key[order][:-1])
@@ -641,6 +700,88 @@ class PolygonMesh:
         """Vertex coordinates (N, 2) of polygon ``i``."""
         return self.points[self.polygon(i)]
 
+    # ----------------------------------------------------------------------- topology
+    # A PolygonMesh is not changed after construction: the members below are computed once.
+    @cached_property
+    def used_points(self) -> npt.NDArray[np.int64]:
+        """Indices (k,) of the points that are vertices of some polygon, sorted (hanging nodes included)."""
+        return np.unique(self.vertices)
+
+    @cached_property
+    def next_entry(self) -> npt.NDArray[np.int64]:
+        """Position in :attr:`vertices` (offsets[-1],) of the next vertex, counter-clockwise, of the
+        same polygon for every entry (:func:`next_entries`)."""
+        return next_entries(self.offsets)
+
+    @cached_property
+    def previous_entry(self) -> npt.NDArray[np.int64]:
+        """Position in :attr:`vertices` (offsets[-1],) of the previous vertex (clockwise) of the same
+        polygon for every entry (:func:`previous_entries`)."""
+        return previous_entries(self.offsets)
+
+    @cached_property
+    def _edge_numbering(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """Sorted :func:`edge_key` (n_edges,) of the distinct undirected edges (the global edge
+        numbering) and the edge (offsets[-1],) of every side."""
+        keys, side_edge = np.unique(edge_key(self.vertices, self.vertices[self.next_entry], self.n_points),
+                                    return_inverse=True)
+        return keys, side_edge.reshape(-1).astype(np.int64)
+
+    @property
+    def n_edges(self) -> int:
+        """Number of distinct undirected edges (a side shared by two polygons is one edge)."""
+        return self._edge_numbering[0].size
+
+    def edge_index(self, a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        """Global index (n,) in [0, n_edges) of the edges between points ``a`` and ``b`` (n,), in
+        either direction. Edges are numbered in the order of their :func:`edge_key` (lower end
+        point, then higher).
+
+        Raises
+        ------
+        ValueError
+            If some pair is not an edge of a polygon (naming the first).
+        """
+        a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+        keys = self._edge_numbering[0]
+        key = edge_key(a, b, self.n_points)
+        index = np.searchsorted(keys, key)
+        missing = np.flatnonzero(keys[np.minimum(index, keys.size - 1)] != key)
+        if missing.size:
+            k = missing[0]
+            raise ValueError(f"points ({a.flat[k]}, {b.flat[k]}) are not the end points of a polygon edge")
+        return index
+
+    @cached_property
+    def edge_points(self) -> npt.NDArray[np.int64]:
+        """End points (n_edges, 2) of every edge, the lower point index first."""
+        return np.stack(np.divmod(self._edge_numbering[0], self.n_points), axis=1)
+
+    @cached_property
+    def edge_polygons(self) -> npt.NDArray[np.int64]:
+        """The polygons of every edge (n_edges, 2): column 0 the polygon whose side runs from the
+        lower to the higher point index, column 1 the one whose side runs back; -1 where there is
+        none (a boundary edge has one polygon; validation rejects the same directed side twice)."""
+        start, end = self.vertices, self.vertices[self.next_entry]
+        out = np.full((self.n_edges, 2), -1, dtype=np.int64)
+        out[self._edge_numbering[1], (start > end).astype(np.int64)] = self.polygon_of_entry()
+        return out
+
+    @cached_property
+    def boundary_edges(self) -> npt.NDArray[np.int64]:
+        """Indices (k,) of the edges of only one polygon, sorted: the boundary of the mesh (outer
+        boundary and holes)."""
+        return np.flatnonzero((self.edge_polygons < 0).any(axis=1))
+
+    @cached_property
+    def sides(self) -> Sides:
+        """The directed sides of the polygons (:class:`Sides`): end points, polygon, edge and the
+        polygon across, one per entry of :attr:`vertices`."""
+        polygon, edge = self.polygon_of_entry(), self._edge_numbering[1]
+        across = self.edge_polygons[edge]
+        neighbour = np.where(across[:, 0] == polygon, across[:, 1], across[:, 0])
+        return Sides(self.vertices, self.vertices[self.next_entry], polygon, edge, neighbour)
+
     def locate(self, x: npt.ArrayLike) -> npt.NDArray[np.int64]:
         """Index (n,) of a polygon containing each point of ``x`` (n, 2) (a point on a shared edge
         belongs to one of its polygons), -1 for points outside the mesh."""
@@ -651,15 +792,14 @@ class PolygonMesh:
         """Reference coordinates (k, 2) of the vertices and edge midpoints on the boundary of
         ``region`` that it shares with region ``other`` (None: the mesh's outer boundary): the
         nodes of the degree-2 edge traces there."""
-        start, end, polygon = self._edges()
-        key = np.minimum(start, end) * self.n_points + np.maximum(start, end)
-        mine = self.tags[polygon] == region
+        sides = self.sides
+        across = sides.neighbour >= 0
         if other is None:
-            unique, count = np.unique(key, return_counts=True)
-            partner = mine & np.isin(key, unique[count == 1])
+            partner = ~across
         else:
-            partner = mine & np.isin(key, key[self.tags[polygon] == other])
-        a, b = start[partner], end[partner]
+            partner = across & (self.tags[sides.neighbour] == other)
+        partner &= self.tags[sides.polygon] == region
+        a, b = sides.start[partner], sides.end[partner]
         return np.unique(np.concatenate([self.points[a], self.points[b], 0.5 * (self.points[a] + self.points[b])]),
                          axis=0)
 
@@ -699,7 +839,7 @@ class PolygonMesh:
         Refinement
             ``.mesh`` the refined mesh, ``.parent`` the polygon of this mesh holding each new one.
         """
-        from .refine import refine_mesh
+        from .refine import refine_mesh      # here, not at the top: refine.py builds PolygonMeshes
         return refine_mesh(self, where, levels, tags=tags, max_l=max_l)
 
     # ----------------------------------------------------------------------- distribution
@@ -761,3 +901,37 @@ class PolygonMesh:
             destinations = np.empty(0, dtype=np.int32)
         mesh = _compat.create_triangle_mesh(comm, cells, x, destinations)
         return mesh, triangle_polygon[_compat.original_cell_index(mesh)]
+
+
+# --------------------------------------------------------------------------- refinement record
+@dataclass(frozen=True)
+class Refinement:
+    """A refined mesh and how it derives from the mesh it was cut from (made by
+    :func:`~dolfinx_sfvem.refine.refine_mesh`).
+
+    Attributes
+    ----------
+    coarse : PolygonMesh
+        The mesh that was refined.
+    mesh : PolygonMesh
+        The refined mesh; its first ``coarse.n_points`` points are those of ``coarse``.
+    parent : (mesh.n_polygons,) int64
+        The polygon of ``coarse`` containing each polygon of ``mesh``.
+    selected : (coarse.n_polygons,) bool
+        The polygons of ``coarse`` that were split: the selection and the neighbours split to keep
+        the projection order bounded (:func:`~dolfinx_sfvem.refine.refine_mesh`); the others at
+        most gained hanging nodes.
+    levels : int
+        Times the selected polygons (and then their children) were split.
+    """
+    coarse: PolygonMesh
+    mesh: PolygonMesh
+    parent: npt.NDArray[np.int64]
+    selected: npt.NDArray[np.bool_]
+    levels: int
+
+    def describe(self) -> str:
+        """One line: polygons and points before and after."""
+        return (f"refined {int(self.selected.sum())} of {self.coarse.n_polygons} polygons {self.levels} time(s): "
+                f"{self.mesh.n_polygons} polygons, {self.mesh.n_points} points "
+                f"({self.mesh.hanging_nodes.size} hanging nodes)")

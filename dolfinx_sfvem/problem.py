@@ -1,15 +1,22 @@
-"""A third-medium contact problem: mesh, region energies, boundary conditions, load path.
+"""A third-medium contact problem: the definition (mesh, region energies, boundary conditions,
+loads) and its state (displacement, load factor), with the queries on them.
 
 Example
 -------
+>>> import numpy as np
 >>> import dolfinx_sfvem as sf
->>> mesh = sf.meshes.cbox(h_solid=0.05)                      # doctest: +SKIP
->>> problem = sf.ContactProblem(mesh, {
+>>> box = sf.meshes.cbox(h_solid=0.1)
+>>> problem = sf.ContactProblem(box.mesh, {
 ...     sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14),
-...     sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)})
->>> problem.fix(lambda x: np.isclose(x[0], 0.0))
->>> problem.prescribe(lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 0.5), uy=-0.5, name="load")
->>> result = problem.solve(steps=50, out="out/cbox")
+...     sf.meshes.MEDIUM: sf.ThirdMedium(mu=5 / 14, gamma=1e-5, alpha_r=1.0)}, verbose=False)
+>>> clamped = problem.fix(lambda x: np.isclose(x[0], 0.0))
+>>> tip = problem.prescribe(lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 0.5), uy=-0.5, name="load")
+>>> result = problem.solve(steps=10)
+>>> result.converged, result.load
+(True, 1.0)
+>>> problem.contact_gap().value > 0                    # the beams touch through the medium, apart
+True
+>>> u = problem.displacement()                         # a dolfinx.fem.Function
 """
 from __future__ import annotations
 
@@ -27,11 +34,12 @@ from .adaptivity import Adaptivity
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .equilibrium import Equilibrium
-from .load_path import LoadPath, Observer, Result
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
-from .refine import Refinement, refine_mesh, transfer_state
+from .refine import Refinement, refine_mesh
+from .run_summary import Observer, Result
 from .snes import DEFAULT_PREFIX
+from .state_transfer import transfer_state
 from .stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
@@ -305,7 +313,8 @@ class ContactProblem:
         """Pressure λ p of a gas in a closed cavity that the third-medium region ``region`` (tag
         or name) fills: the energy term -λ p ∫ (J - 1) dΩ over the region (Faltus et al. 2024),
         the exact follower load of the cavity's area with a symmetric tangent. The region must be
-        a third medium enclosed by other regions (docs/loads.md)."""
+        a third medium enclosed by other regions, or by symmetry lines x = const / y = const with
+        the normal displacement fixed there (a half or quarter model; checked when solving)."""
         tag = self._region_tags(region, name)
         if len(tag) != 1:
             raise ValueError(f"cavity pressure {name!r}: give one region, got {region!r}")
@@ -468,7 +477,7 @@ class ContactProblem:
         The discretization is rebuilt on the refined mesh (same materials and options), the
         boundary conditions are kept (markers are evaluated again on the new nodes, tags select
         the same regions) and the state is transferred exactly for quadratic fields
-        (:func:`~dolfinx_sfvem.refine.transfer_state`, docs/refinement-local.md).
+        (:func:`~dolfinx_sfvem.state_transfer.transfer_state`, docs/refinement-local.md).
 
         Parameters
         ----------
@@ -588,6 +597,7 @@ class ContactProblem:
         elif steps is not None or min_increment is not None:
             raise ValueError("steps and min_increment belong to the default load stepping; with a control "
                              "give them to the control")
+        from .load_path import LoadPath        # the driver of a problem's path (it imports this module)
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,

@@ -21,7 +21,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .polygon_mesh import PolygonMesh
+from .node_keys import sfvem_unknowns
+from .polygon_mesh import PolygonMesh, edge_key
 from .meshing.gmsh_io import gmsh_session, model_cells
 from .polygon import point_location, signed_area
 
@@ -47,15 +48,12 @@ Loop = np.ndarray  #: closed loop of point indices (k,), region on the left
 
 
 def _boundary_edges(mesh: PolygonMesh, tag: int) -> tuple[np.ndarray, np.ndarray]:
-    """Directed edges (a -> b) of the polygons of region ``tag`` whose reverse is not an edge
-    of the region: its boundary, oriented with the region on the left."""
-    nxt = np.arange(1, mesh.vertices.size + 1)
-    nxt[mesh.offsets[1:] - 1] = mesh.offsets[:-1]
-    in_region = mesh.tags[mesh.polygon_of_entry()] == tag
-    a, b = mesh.vertices[in_region], mesh.vertices[nxt][in_region]
-    n = mesh.n_points
-    keep = ~np.isin(a * n + b, b * n + a)
-    return a[keep], b[keep]
+    """Sides (a -> b) of the polygons of region ``tag`` with no polygon of the region across:
+    its boundary, oriented with the region on the left."""
+    sides = mesh.sides
+    outside = (sides.neighbour < 0) | (mesh.tags[sides.neighbour] != tag)
+    keep = (mesh.tags[sides.polygon] == tag) & outside
+    return sides.start[keep], sides.end[keep]
 
 
 def _chain(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> list[Loop]:
@@ -170,17 +168,8 @@ def triangulate(mesh: PolygonMesh, h: float) -> TriangleMesh:
 
 def p2_unknowns(triangles: np.ndarray) -> int:
     """Number of P2 displacement unknowns, 2 (vertices + edges), of a triangle mesh (m, 3)."""
-    edges = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
-    return 2 * (np.unique(triangles).size + np.unique(edges, axis=0).shape[0])
-
-
-def sfvem_unknowns(mesh: PolygonMesh) -> int:
-    """Number of order-2 SFVEM displacement unknowns, 2 (vertices + edges + polygons) (paper §4.1)."""
-    nxt = np.arange(1, mesh.vertices.size + 1)
-    nxt[mesh.offsets[1:] - 1] = mesh.offsets[:-1]
-    a, b = mesh.vertices, mesh.vertices[nxt]
-    n_edges = np.unique(np.minimum(a, b) * mesh.n_points + np.maximum(a, b)).size
-    return 2 * (np.unique(mesh.vertices).size + n_edges + mesh.n_polygons)
+    edges = edge_key(triangles, np.roll(triangles, -1, axis=1), int(triangles.max(initial=-1)) + 1)
+    return 2 * (np.unique(triangles).size + np.unique(edges).size)
 
 
 def matched_triangulation(mesh: PolygonMesh, target: int | None = None, *, rtol: float = 0.05,

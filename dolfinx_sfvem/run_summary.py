@@ -23,6 +23,42 @@ STOPPED_BY_SIGNAL = "stopped by signal"
 _RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "message", "parameters", "steps")
 
 
+#: an observer of a load path: ``f(problem)`` returns one number, or several named ones
+Observer = typing.Callable[[typing.Any], typing.Union[float, typing.Mapping[str, float]]]
+
+
+@dataclasses.dataclass
+class Result:
+    """Outcome of a load path (:meth:`~dolfinx_sfvem.ContactProblem.solve`).
+
+    Attributes
+    ----------
+    converged : bool
+        The load factor ``until`` (default 1, the full load) was reached, or the arc-length's
+        stop criterion met (and no solids overlap).
+    load : float
+        Load factor of the last converged step.
+    steps : list of dict
+        The converged steps, in order (``summary.json``'s records: ``load``, ``reaction``
+        ``{name: [R_x, R_y]}``, ``loads`` ``{name: {magnitude, displacement}}``, ``gap``,
+        ``extra`` (observers), ...).
+    attempts : list of dict
+        Every attempted step, failed ones included (``converged`` False, with ``failure``).
+    wall_time_s : float
+    summary : dict
+        The content of summary.json.
+    message : str
+        Why the run stopped ("" if it converged).
+    """
+    converged: bool
+    load: float
+    steps: list[dict]
+    attempts: list[dict]
+    wall_time_s: float
+    summary: dict
+    message: str = ""
+
+
 @dataclasses.dataclass
 class StepRecord:
     """One attempted step as the load path writes it (an entry of ``steps``; read back as

@@ -49,9 +49,7 @@ from petsc4py import PETSc
 
 from . import _compat
 from .discretization import AssemblyInfo
-
-if typing.TYPE_CHECKING:
-    from .equilibrium import Equilibrium
+from .equilibrium import Equilibrium
 
 #: options prefix of a problem's solvers unless the user gives another
 DEFAULT_PREFIX = "tmc_"
@@ -414,6 +412,9 @@ class SNESNewton:
         self.history = []
         self.worst_info = None
         self._start(x)
+        if not np.isfinite(self._stiffness):          # e.g. a predicted state with J <= 0: no Newton from there
+            return NewtonResult(False, int(PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN), 0, [], float("nan"),
+                                -1, -1, failure="the start state is outside the energy's domain (non-finite tangent)")
         if self.scaled_atol:
             self.snes.setTolerances(atol=self.absolute_tolerance(x))
         self.snes.solve(None, x)

@@ -28,8 +28,9 @@ import dolfinx.fem
 
 from . import _compat
 from .logs import say
-from .polygon_mesh import PolygonMesh
 from .monomials import evaluate_monomials
+from .node_keys import mean_keys, midpoint_keys
+from .polygon_mesh import PolygonMesh, concatenated_ranges, edge_key
 from .projection import Projections, build_projections
 from .quadrature import compressed_polygon_quadrature, polygon_quadrature
 
@@ -42,48 +43,18 @@ VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
 log = logging.getLogger(__name__)
 
 
-def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Concatenation of ``arange(s, s + n)`` for all (s, n), vectorised."""
-    total = int(lengths.sum())
-    shift = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
-    return shift + np.arange(total)
-
-
-def _vertex_positions(offsets: np.ndarray, polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions in the CSR vertex array of every vertex of ``polygons`` and of its successor."""
-    N = offsets[polygons + 1] - offsets[polygons]
-    this = _ranges(offsets[polygons], N)
-    local_i = _ranges(np.zeros_like(N), N)
-    return this, this - local_i + (local_i + 1) % np.repeat(N, N)
-
-
-class _GlobalEdges:
-    """Global numbering of the polygon edges of a mesh (unordered vertex pairs, sorted)."""
-
-    def __init__(self, mesh: PolygonMesh):
-        this, nxt = _vertex_positions(mesh.offsets, np.arange(mesh.n_polygons))
-        a, b = mesh.vertices[this], mesh.vertices[nxt]
-        self._n = mesh.n_points
-        self._keys = np.unique(np.minimum(a, b) * self._n + np.maximum(a, b))
-        self.n_edges = self._keys.size
-
-    def __call__(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return np.searchsorted(self._keys, np.minimum(a, b) * self._n + np.maximum(a, b))
-
-
 class _EdgeLookup:
     """Map an (unordered) pair of input node indices to the local P2 node at its midpoint."""
 
     def __init__(self, a: np.ndarray, b: np.ndarray, nodes: np.ndarray, n: int):
         self._n = n
-        keys = np.minimum(a, b) * n + np.maximum(a, b)
-        self._keys, first = np.unique(keys, return_index=True)
+        self._keys, first = np.unique(edge_key(a, b, n), return_index=True)
         self._nodes = nodes[first]
 
     def __call__(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         if a.size == 0:
             return np.empty(0, dtype=self._nodes.dtype)
-        keys = np.minimum(a, b) * self._n + np.maximum(a, b)
+        keys = edge_key(a, b, self._n)
         pos = np.searchsorted(self._keys, keys)
         pos = np.minimum(pos, self._keys.size - 1)
         if not np.all(self._keys[pos] == keys):
@@ -138,10 +109,9 @@ class VEMSpace:
     node_point : (n_local_nodes,) int64
         Index of the polygon-mesh point at each VERTEX node, -1 for the others.
     node_key : (n_local_nodes,) int64
-        Partition-independent node id: the point index of a vertex, ``n_points`` + global
-        edge index of a midpoint, ``n_points + n_edges`` + global polygon index of an interior node.
-    edge_index : callable
-        ``edge_index(a, b)``: global index (n,) of the polygon edges between points a and b (n,).
+        Partition-independent node id (:mod:`~dolfinx_sfvem.node_keys`): the point index of a
+        vertex, ``n_points`` + global edge index of a midpoint, ``n_points + n_edges`` + global
+        polygon index of an interior node.
     projections : Projections
         Π^∇_2 and Π⁰_l∇ of the local polygons.
     q_offsets, x_q, w_q
@@ -163,7 +133,6 @@ class VEMSpace:
         self.polygons = np.unique(self.cell_polygon[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
         self.tags = mesh.tags[self.polygons]
 
-        self.edge_index = _GlobalEdges(mesh)
         p2_nodes, kind = self._polygon_p2_nodes()
         self._number_nodes(p2_nodes, kind)
 
@@ -196,8 +165,8 @@ class VEMSpace:
         nd = 2 * N + 1
         self.dof_offsets = np.concatenate([[0], np.cumsum(nd)]).astype(np.int64)
         first = self.dof_offsets[:-1]
-        this, nxt = _vertex_positions(mesh.offsets, P)
-        v, v_next = mesh.vertices[this], mesh.vertices[nxt]
+        this = concatenated_ranges(mesh.offsets[P], N)
+        v, v_next = mesh.sides.start[this], mesh.sides.end[this]
         a, b = mesh.interior_node[P, 0], mesh.interior_node[P, 1]
         interior = node_of_input[a]
         diagonal = a != b
@@ -205,17 +174,15 @@ class VEMSpace:
 
         nodes = np.empty(self.dof_offsets[-1], dtype=np.int64)
         kind = np.empty(self.dof_offsets[-1], dtype=np.int8)
-        at_vertex = _ranges(first, N)
-        at_mid = _ranges(first + N, N)
+        at_vertex = concatenated_ranges(first, N)
+        at_mid = concatenated_ranges(first + N, N)
         nodes[at_vertex], kind[at_vertex] = node_of_input[v], VERTEX
         nodes[at_mid], kind[at_mid] = edge_node(v, v_next), MIDPOINT
-        # partition-independent key of every DOF node (checkpoints): point index for vertices,
-        # then global edge index for midpoints, then global polygon index for interiors
-        n_pts, edge_index = mesh.n_points, self.edge_index
+        # partition-independent key of every DOF node (checkpoints)
         self._dof_key = np.empty(self.dof_offsets[-1], dtype=np.int64)
         self._dof_key[at_vertex] = v
-        self._dof_key[at_mid] = n_pts + edge_index(v, v_next)
-        self._dof_key[first + 2 * N] = n_pts + edge_index.n_edges + P
+        self._dof_key[at_mid] = midpoint_keys(mesh, v, v_next)
+        self._dof_key[first + 2 * N] = mean_keys(mesh, P)
         nodes[first + 2 * N], kind[first + 2 * N] = interior, INTERIOR
         if np.any(nodes < 0):
             raise RuntimeError("a polygon node is missing from the sub-triangulation")

@@ -10,7 +10,7 @@ A *control* decides the next point of the path and hands every attempt, converge
   balance and an arc-length constraint (limit points, snap-through).
 
 A control talks to the equilibrium solvers of the current mesh through a
-:class:`~dolfinx_sfvem.load_path.StepSolver` (``solver.x`` the state, ``solver.solve_at(λ)``
+:class:`~dolfinx_sfvem.step_solver.StepSolver` (``solver.x`` the state, ``solver.solve_at(λ)``
 Newton at fixed λ with the contact checks, and what arc-length needs); it keeps its own state
 (:meth:`Control.state`) so that a checkpoint continues a stopped run exactly.
 """
@@ -25,9 +25,8 @@ import numpy as np
 from petsc4py import PETSc
 
 from .snes import NewtonResult, SolveFailed
+from .step_solver import StepSolver
 
-if typing.TYPE_CHECKING:
-    from .load_path import StepSolver
 
 
 @dataclass
@@ -99,19 +98,44 @@ class Control(abc.ABC):
 
 
 class LoadStepping(Control):
-    """Ramp the load factor λ from ``start`` to ``until`` (default 0 to 1) in increments of
-    ``1 / steps``, the last one shortened to land on ``until``.
+    """The load factor λ prescribed, from ``start`` to ``until`` (default 0 to 1), one Newton solve
+    per step, the last increment shortened to land on ``until``.
+
+    Increments (``adaptive``, the default): the first is ``1 / steps``; after a converged step
+    that took n Newton iterations the increment is multiplied by (n_target / n)^½, within
+    [1/2, 2], and kept within [``min_increment``, ``max_increment``]: easy stretches of the path
+    are crossed in long steps, contact onset in short ones. With ``adaptive=False`` every
+    increment is ``1 / steps`` unless cut back, and a cut increment is doubled again after
+    ``grow_after`` successes in a row (never beyond ``1 / steps``).
+
+    Predictor (``predictor``, the default): a step starts from the secant extrapolation of the
+    last two converged states, x_n + (Δλ / Δλ_prev)(x_n - x_{n-1}), not from x_n; prescribed
+    displacements are then at their new values already. Where Newton cannot even start from the
+    prediction (a fold or J <= 0 in it), the step starts from x_n instead.
 
     A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
-    by the caller such as overlapping solids) is retried from the last
-    converged state with half the increment, down to ``min_increment``; after
-    ``grow_after`` consecutive successes a cut increment is doubled again (never beyond
-    the nominal one). When even the smallest increment fails, :class:`SolveFailed` is
-    raised; every attempt has already been yielded by :meth:`attempts`. The stepper's
-    own state (:meth:`state`) is what a checkpoint needs to continue exactly.
+    by the caller such as overlapping solids) is retried from the last converged state with half
+    the increment, down to ``min_increment``; when even that fails, :class:`SolveFailed` is
+    raised after the attempt has been yielded. The control's state (:meth:`state`, and
+    :attr:`previous` for the predictor) is what a checkpoint needs to continue exactly.
+
+    Parameters
+    ----------
+    steps
+        1 / steps is the first increment (and, without adaptivity, every increment).
+    min_increment
+        Smallest increment of the cut-back (default (1/steps)/2¹⁰).
+    max_increment
+        Largest increment (default max(1/steps, 0.1)): the path has at least
+        (until - start) / max_increment converged points.
+    adaptive, predictor
+        Adaptive increments and the secant predictor (both on by default).
+    target_iterations
+        Newton iterations per step that the adaptive increment aims at.
     """
 
-    def __init__(self, steps: int, *, min_increment: float | None = None, grow_after: int = 2,
+    def __init__(self, steps: int, *, min_increment: float | None = None, max_increment: float | None = None,
+                 adaptive: bool = True, predictor: bool = True, target_iterations: int = 6, grow_after: int = 2,
                  max_attempts: int = 10_000, start: float = 0.0, until: float = 1.0):
         if not (isinstance(steps, (int, np.integer)) and not isinstance(steps, bool) and steps >= 1):
             raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -120,8 +144,16 @@ class LoadStepping(Control):
         self.min_increment = min_increment if min_increment is not None else self.nominal / 2 ** 10
         if not (0 < self.min_increment <= self.nominal):
             raise ValueError(f"min_increment must be in (0, 1/steps], got {self.min_increment}")
+        self.max_increment = max_increment if max_increment is not None else max(self.nominal, 0.1)
+        if not (self.nominal <= self.max_increment <= 1.0):
+            raise ValueError(f"max_increment must be in [1/steps, 1], got {self.max_increment}")
+        if not (isinstance(target_iterations, int) and target_iterations >= 1):
+            raise ValueError(f"target_iterations must be an integer >= 1, got {target_iterations!r}")
+        self.adaptive, self.predictor = bool(adaptive), bool(predictor)
+        self.target_iterations = target_iterations
         self.grow_after = grow_after
         self.max_attempts = max_attempts
+        self.previous = None
         self.start(start, until)
 
     def start(self, load: float, until: float) -> None:
@@ -129,15 +161,45 @@ class LoadStepping(Control):
             raise ValueError(f"need 0 <= start <= until <= 1, got start = {load}, until = {until}")
         self.until = until
         self.load, self.increment, self.streak = float(load), self.nominal, 0
+        self.previous_load = float(load)
+        self.forget_history()
 
     def state(self) -> dict[str, float]:
-        return {"load": self.load, "increment": self.increment, "streak": self.streak}
+        return {"load": self.load, "increment": self.increment, "streak": self.streak,
+                "previous_load": self.previous_load}
 
     def restore(self, state: typing.Mapping[str, float]) -> None:
         self.load, self.increment, self.streak = float(state["load"]), float(state["increment"]), int(state["streak"])
+        self.previous_load = float(state.get("previous_load", self.load))
 
     def describe(self) -> dict[str, typing.Any]:
-        return {"control": "load stepping", "steps": self.steps}
+        return {"control": "load stepping", "steps": self.steps, "adaptive": self.adaptive,
+                "predictor": self.predictor, "max_increment": self.max_increment,
+                "target_iterations": self.target_iterations}
+
+    def forget_history(self) -> None:
+        if self.previous is not None:
+            self.previous.destroy()
+        self.previous = None
+
+    def _predict(self, x: PETSc.Vec, target: float) -> bool:
+        """x moved to the secant prediction at ``target``; whether there was one to make."""
+        if not self.predictor or self.previous is None or self.load <= self.previous_load:
+            return False
+        x.scale(1.0 + (target - self.load) / (self.load - self.previous_load))
+        x.axpy(-(target - self.load) / (self.load - self.previous_load), self.previous)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return True
+
+    def _grow(self, iterations: int) -> None:
+        """The next increment after a converged step that took ``iterations``."""
+        if self.adaptive:
+            factor = min(2.0, max(0.5, (self.target_iterations / max(iterations, 1)) ** 0.5))
+            self.increment = min(self.max_increment, max(self.min_increment, self.increment * factor))
+        else:
+            self.streak += 1
+            if self.increment < self.nominal and self.streak >= self.grow_after:
+                self.increment, self.streak = min(2 * self.increment, self.nominal), 0
 
     def attempts(self, solver: StepSolver) -> typing.Iterator[Attempt]:
         x = solver.x
@@ -147,18 +209,25 @@ class LoadStepping(Control):
             target = min(self.load + self.increment, self.until)
             saved = x.copy()
             t0 = time.perf_counter()
-            result = solver.solve_at(target)
+            if self._predict(x, target):
+                result = solver.solve_at(target)
+                if not result.converged and result.iterations == 0:      # Newton could not start there
+                    saved.copy(x)
+                    x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                    result = solver.solve_at(target)
+            else:
+                result = solver.solve_at(target)
             elapsed = time.perf_counter() - t0
             if result.converged:
-                self.load = target
-                self.streak += 1
-                if self.increment < self.nominal and self.streak >= self.grow_after:
-                    self.increment, self.streak = min(2 * self.increment, self.nominal), 0
+                self.forget_history()
+                self.previous, saved = saved, None
+                self.previous_load, self.load = self.load, target
+                self._grow(result.iterations)
             else:
                 saved.copy(x)
                 x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                saved.destroy()
                 self.streak = 0
-            saved.destroy()
             smallest = not result.converged and self.increment / 2 < self.min_increment * (1 - 1e-12)
             if not (result.converged or smallest):
                 self.increment /= 2

@@ -15,7 +15,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import _compat
+from . import _compat, node_keys
 from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, first_piola_at, load_loop,
                        projected_fields, residual_loop, tangent_loop)
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
@@ -302,7 +302,7 @@ class SFVEMDiscretization(Discretization):
 
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the points a and b (n,)."""
-        return self.space.polygon_mesh.n_points + self.space.edge_index(a, b)
+        return node_keys.midpoint_keys(self.space.polygon_mesh, a, b)
 
     @property
     def output_mesh(self) -> PolygonMesh:

@@ -15,7 +15,8 @@ from test_demos import DEMOS
 from test_refine import MEDIUM, OTHER, SOLID, K, MU, two_blocks
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.adaptivity import sfvem_unknowns, smallest_J
+from dolfinx_sfvem.adaptivity import smallest_J
+from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.run_summary import read_summary
 
 MATERIALS = {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-5, alpha_r=1.0),

@@ -180,7 +180,8 @@ def run_cbox(*args, out):
 
 
 def test_cbox_gap_is_recorded_per_step(tmp_path):
-    proc = run_cbox("--uy", "-0.2", "--steps", "4", "--pressure-at", "0.5", "0.6", out=tmp_path)
+    proc = run_cbox("--uy", "-0.2", "--steps", "4", "--fixed-increments", "--pressure-at", "0.5", "0.6",
+                    out=tmp_path)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     gaps = [s["gap"]["value"] for s in summary["steps"]]
@@ -360,3 +361,23 @@ def test_cbox_pair_force_is_the_whole_medium_force(cbox_end_state):
     assert np.abs(np.array(pair.force) + material[on].sum(axis=0)).max() > 0.05 * np.abs(pair.force).max()
     scale = np.abs(whole).sum()
     assert np.abs(whole.sum(axis=0)).max() < 1e-6 * scale < np.abs(material.sum(axis=0)).max()
+
+
+@pytest.mark.parametrize("p, q, r, s, meet", [
+    ((0, 0), (2, 0), (1, -1), (1, 1), True),          # proper crossing
+    ((0, 0), (2, 0), (2, 0), (3, 1), True),           # touching at an end point
+    ((0, 0), (2, 0), (1, 0), (3, 0), True),           # collinear, overlapping
+    ((0, 0), (2, 0), (2, 0), (3, 0), True),           # collinear, touching end to end
+    ((0, 0), (2, 0), (2.5, 0), (3, 0), False),        # collinear, apart
+    ((0, 0), (2, 0), (1, 0.5), (1, 2), False),        # bounding boxes overlap in x, the segments do not meet
+    ((0, 0), (2, 2), (1, 1.2), (2, 0.5), True),       # crossing a diagonal
+    ((0, 0), (2, 2), (1.5, 1.2), (2, 0.5), False),    # beside it
+])
+def test_segments_cross_on_touching_and_collinear_segments(p, q, r, s, meet):
+    """The guard's segment test (injectivity.segments_cross) on the closed segments [p, q], [r, s],
+    in both orders of the two segments and of their end points."""
+    from dolfinx_sfvem.injectivity import segments_cross
+    for a, b in ((p, q), (q, p)):
+        for c, d in ((r, s), (s, r)):
+            assert segments_cross(*map(float, (*a, *b, *c, *d))) is meet
+            assert segments_cross(*map(float, (*c, *d, *a, *b))) is meet

@@ -16,7 +16,7 @@ from dolfinx_sfvem.run_summary import read_summary
 DEMO = pathlib.Path(__file__).resolve().parents[1] / "demos" / "box_self_contact.py"
 
 #: a short load path before contact on the coarsest mesh the walls allow (h = wall thickness)
-SMALL = ["--h", "0.1", "--uy", "-0.2", "--quiet"]
+SMALL = ["--h", "0.1", "--uy", "-0.2", "--fixed-increments", "--quiet"]
 G0 = 0.3
 
 

@@ -298,7 +298,7 @@ def test_shallow_arch(polygons):
     # the clamped faces: radial lines through the centre, mirror images of each other
     for name, sign in (("left_end", -1), ("right_end", 1)):
         on = points[bench.vertices_on(name)] - top.centre
-        assert len(on) >= 4 and np.abs(np.cross(on, on[0])).max() < 1e-12
+        assert len(on) >= 4 and np.abs(on[:, 0] * on[0, 1] - on[:, 1] * on[0, 0]).max() < 1e-12
         assert np.sign(on[:, 0]).tolist() == [sign] * len(on)
     band = top.end - top.start
     exact_area = band / 2 * (top.radius ** 2 - bench.arcs["bottom"].radius ** 2)

@@ -26,7 +26,8 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.energy import REGULARIZATIONS
 from dolfinx_sfvem.fem import LagrangeDiscretization
 from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
-from dolfinx_sfvem.remesh import p2_unknowns, sfvem_unknowns, triangulate
+from dolfinx_sfvem.node_keys import sfvem_unknowns
+from dolfinx_sfvem.remesh import p2_unknowns, triangulate
 from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
 
 STEP = 1e-6

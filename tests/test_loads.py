@@ -208,16 +208,65 @@ def test_bad_loads_are_named():
         block("vem").traction(7, t=(1.0, 0.0))
 
 
-def test_open_cavity_is_refused():
-    """A medium region reaching the mesh boundary is no closed cavity."""
+def half_medium(rotation: float = 0.0) -> sf.ContactProblem:
+    """The unit square turned by ``rotation`` (radians), medium in its half x > 0.5 (before the
+    turn), clamped at x = 0: the medium reaches the mesh boundary on three sides."""
     mesh = meshes.quad_rectangle(1.0, 1.0, 4, 4, tag=SOLID)
     tags = np.where(mesh.centroids[:, 0] > 0.5, MEDIUM, SOLID)
-    mesh = sf.PolygonMesh(mesh.points, [mesh.polygon(i) for i in range(mesh.n_polygons)], tags)
+    c, s = np.cos(rotation), np.sin(rotation)
+    mesh = sf.PolygonMesh(mesh.points @ np.array([[c, s], [-s, c]]), [mesh.polygon(i) for i in range(mesh.n_polygons)],
+                          tags)
     problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU),
                                        MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-6, alpha_r=1.0)}, verbose=False)
-    problem.fix(lambda x: np.isclose(x[0], 0.0))
-    with pytest.raises(ValueError, match=r"region 2 is not closed: its edge .* lies on the boundary of the mesh"):
-        problem.cavity_pressure(MEDIUM, 1.0)
+    problem.fix(lambda x: np.isclose(x[0] * c + x[1] * s, 0.0))
+    return problem
+
+
+def test_open_cavity_is_refused():
+    """A medium region reaching the mesh boundary is no closed cavity: refused when it is defined
+    if the boundary there is not a line x = const or y = const, else at the solve when the normal
+    displacement is not fixed there (a symmetry line closes a cavity only then)."""
+    with pytest.raises(ValueError, match=r"region 2 is not closed: its edge .* lies on the boundary of the mesh "
+                                         r"off the x and y directions"):
+        half_medium(rotation=0.5).cavity_pressure(MEDIUM, 1.0)
+    problem = half_medium()
+    problem.cavity_pressure(MEDIUM, 1.0)
+    with pytest.raises(ValueError, match=r"region 2 is not closed: its edge .* lies on the boundary of the mesh "
+                                         r"without u_[xy] fixed at its nodes"):
+        problem.solve(1)
+    problem = half_medium()
+    problem.cavity_pressure(MEDIUM, 1.0)
+    problem.fix(lambda x: np.isclose(x[0], 1.0), components=("x",), name="right")
+    with pytest.raises(ValueError, match=r"its edge \([.0-9]+, ([01])\)-\([.0-9]+, \1\) lies on the boundary of "
+                                         r"the mesh without u_y fixed"):         # on y = 0 or y = 1
+        problem.solve(1)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("method", ["vem", "fem"])
+def test_cavity_pressure_on_a_symmetry_line(method):
+    """The frame of the test above cut along its symmetry line y = 1/2 with u_y = 0 there: the
+    cavity pressure on the half cavity, open on the line, deforms the half as the whole frame and
+    its recorded area change is half the whole cavity's."""
+    p = 0.05
+    whole, _ = frame(True, method)
+    whole.cavity_pressure(MEDIUM, p, name="gas")
+    mesh = whole.mesh
+    lower = np.flatnonzero(mesh.centroids[:, 1] < 0.5)
+    half_mesh = sf.PolygonMesh(mesh.points, [mesh.polygon(i) for i in lower], mesh.tags[lower])
+    half = sf.ContactProblem(half_mesh, whole.materials, method=method, comm=COMM, verbose=False,
+                             **({"fem_mesh": half_mesh} if method == "fem" else {}))
+    half.fix(lambda x: np.isclose(x[0], 0.0), name="clamped")
+    half.fix(lambda x: np.isclose(x[1], 0.5), components=("y",), name="symmetry")
+    half.cavity_pressure(MEDIUM, p, name="gas")
+    a, b = whole.solve(4), half.solve(4)
+    assert a.converged and b.converged, (a.message, b.message)
+    points = half_mesh.points[np.unique(half_mesh.vertices)]
+    u_whole, u_half = (np.array([nodal_displacement(q, x) for x in points]) for q in (whole, half))
+    scale = np.abs(u_whole).max()
+    assert scale > 1e-3 and np.abs(u_half - u_whole).max() < 1e-8 * scale, np.abs(u_half - u_whole).max() / scale
+    dA_whole, dA_half = (r.steps[-1]["loads"]["gas"]["displacement"] for r in (a, b))
+    assert dA_whole > 0 and dA_half == pytest.approx(dA_whole / 2, rel=1e-8)
 
 
 def test_loads_are_written_and_a_changed_load_is_not_resumed(tmp_path):

@@ -12,7 +12,7 @@ from test_projection import build_one, check_patch, polygon_moments
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.projection import build_projections
-from dolfinx_sfvem.refine import transfer_state
+from dolfinx_sfvem.state_transfer import transfer_state
 
 SOLID, MEDIUM, OTHER = 1, 2, 3
 K, MU = 5 / 3, 5 / 14

@@ -130,7 +130,7 @@ def test_failed_step_reports_step_load_residuals_and_smallest_J(tmp_path):
 # --------------------------------------------------------------------------- resume
 def test_resume_equals_uninterrupted_run(tmp_path):
     full = strip_problem()
-    full.solve(steps=6, out=tmp_path / "full")
+    full.solve(out=tmp_path / "full", control=fixed(6))
     count = {"n": 0}
 
     def stop_after_three(problem):
@@ -140,13 +140,13 @@ def test_resume_equals_uninterrupted_run(tmp_path):
         return 0.0
 
     stopped = strip_problem()
-    partial = stopped.solve(steps=6, out=tmp_path / "part", observers={"stop": stop_after_three})
+    partial = stopped.solve(out=tmp_path / "part", observers={"stop": stop_after_three}, control=fixed(6))
     assert not partial.converged and "signal" in partial.message and partial.load == pytest.approx(0.5)
     kept = json.loads((tmp_path / "part" / "summary.json").read_text())["steps"]
     assert [s["step"] for s in kept if s["converged"]] == [1, 2, 3]
 
     resumed = strip_problem()
-    result = resumed.solve(steps=6, out=tmp_path / "part", resume=True)
+    result = resumed.solve(out=tmp_path / "part", resume=True, control=fixed(6))
     assert result.converged and [s["step"] for s in result.steps] == list(range(1, 7))
     u_full, u_resumed = full.point_displacements(), resumed.point_displacements()
     assert np.max(np.abs(u_full - u_resumed)) <= 1e-10 * np.max(np.abs(u_full))
@@ -178,7 +178,7 @@ def test_resume_after_a_kill_sets_a_broken_hdf5_aside(tmp_path):
             os.kill(os.getpid(), signal.SIGINT)
         return 0.0
 
-    strip_problem().solve(steps=4, out=tmp_path, observers={"stop": stop_after_two})
+    strip_problem().solve(out=tmp_path, observers={"stop": stop_after_two}, control=fixed(4))
     assert running["message"] == "running" and 0.0 < running["wall_time_s"] < float("inf")
     stopped = json.loads((tmp_path / "summary.json").read_text())
     assert RunSummary.from_dict(running).interrupted and RunSummary.from_dict(stopped).interrupted
@@ -188,7 +188,7 @@ def test_resume_after_a_kill_sets_a_broken_hdf5_aside(tmp_path):
     h5 = tmp_path / "displacement.h5"
     assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.25, 0.5])
     h5.write_bytes(bytes(4096))                                   # what a SIGKILL can leave
-    result = strip_problem().solve(steps=4, out=tmp_path, resume=True)
+    result = strip_problem().solve(out=tmp_path, resume=True, control=fixed(4))
     assert result.converged and result.wall_time_s > killed["wall_time_s"] > running["wall_time_s"]
     assert (tmp_path / "displacement.h5.broken").exists() and (tmp_path / "displacement.xdmf.broken").exists()
     assert xdmf_times(tmp_path / "displacement.xdmf") == pytest.approx([0.75, 1.0])
@@ -200,13 +200,18 @@ def test_resume_with_other_steps_is_refused(tmp_path):
         strip_problem().solve(steps=3, out=tmp_path, resume=True)
 
 
+def fixed(steps: int) -> sf.LoadStepping:
+    """Increments of 1/steps (no adaptivity, no predictor): the resume tests know where each step lands."""
+    return sf.LoadStepping(steps, adaptive=False, predictor=False)
+
+
 def _demo(args, **kw):
     return subprocess.Popen([sys.executable, str(ROOT / "demos" / "cbox.py"), *args], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
 
 
 def test_sigterm_keeps_converged_steps_and_resume_finishes(tmp_path):
-    common = ["--h", "0.1", "--uy", "-0.3", "--steps", "30", "--quiet"]
+    common = ["--h", "0.1", "--uy", "-0.3", "--steps", "30", "--fixed-increments", "--quiet"]
     run = _demo([*common, "--out", str(tmp_path / "run")])
     summary = tmp_path / "run" / "summary.json"
     deadline = time.time() + 120

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..polygon_mesh import PolygonMesh
-from .polygon_sets import next_in_polygon
 
 
 def t_junctions(mesh: PolygonMesh) -> np.ndarray:
@@ -17,10 +16,7 @@ def t_junctions(mesh: PolygonMesh) -> np.ndarray:
     no polygon has as a corner is not counted: on a straight outer boundary, or straight
     on both sides of an interface (as the dual of a triangle mesh leaves them).
     """
-    points, offsets, flat = mesh.points, mesh.offsets, mesh.vertices
-    nxt = next_in_polygon(offsets)
-    prv = np.empty_like(nxt)
-    prv[nxt] = np.arange(nxt.size)
+    points, flat, nxt, prv = mesh.points, mesh.vertices, mesh.next_entry, mesh.previous_entry
     d_in, d_out = points[flat] - points[flat[prv]], points[flat[nxt]] - points[flat]
     cross = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
     length_in, length_out = np.linalg.norm(d_in, axis=1), np.linalg.norm(d_out, axis=1)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ..polygon_mesh import edge_key
 from .polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
 
 
@@ -141,9 +142,8 @@ def _fan_polygons(chain: np.ndarray, rank: np.ndarray, n_open: int, corner_point
 
 def _undirected_ids(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distinct undirected edges (E,) end points and the id of every given edge (a, b)."""
-    keys, ids = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
-    first, second = np.divmod(keys, n)
-    return first, second, ids
+    _, first, ids = np.unique(edge_key(a, b, n), return_index=True, return_inverse=True)
+    return a[first], b[first], ids.reshape(-1)
 
 
 def dual_polygons(points: npt.ArrayLike, triangles: npt.ArrayLike,

@@ -55,13 +55,6 @@ def split_csr(offsets: np.ndarray, flat: np.ndarray) -> list[np.ndarray]:
     return np.split(flat, offsets[1:-1])
 
 
-def next_in_polygon(offsets: np.ndarray) -> np.ndarray:
-    """Flat position of the next (counter-clockwise) vertex of every flat position."""
-    nxt = np.arange(1, offsets[-1] + 1)
-    nxt[offsets[1:] - 1] = offsets[:-1]
-    return nxt
-
-
 def compact_points(points: np.ndarray, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop points no polygon uses; returns the used points and the renumbered indices."""
     used, renumbered = np.unique(flat, return_inverse=True)

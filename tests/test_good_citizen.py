@@ -1,0 +1,207 @@
+"""The library inside a user's DOLFINx script (issue 25): PETSc options under its own prefix,
+messages through logging, Ctrl-C, results as DOLFINx objects, examples that run.
+
+- A script's own global ``-snes_max_it 1`` does not reach this library's Newton; nothing of the
+  library stays in PETSc's options database after a solve; ``-tmc_...`` options do reach it.
+- Progress records go to a handler the user attaches to the ``dolfinx_sfvem`` logger; without
+  one the library prints them itself; ``verbose=False`` prints nothing.
+- A second SIGINT interrupts at once; no handlers in a notebook kernel or off the main thread;
+  a KeyboardInterrupt during a solve keeps the converged steps and the state of the last one,
+  and the run resumes to the uninterrupted result.
+- displacement(), stress() and region_tags() are DOLFINx objects usable in forms.
+- The module docstring example of problem.py and the README's Python examples run.
+"""
+import doctest
+import logging
+import pathlib
+import re
+import signal
+import sys
+import threading
+import types
+
+import dolfinx_sfvem as sf  # first: with the dolfinx-solver wheel it loads MPI before the bindings
+import dolfinx_sfvem.problem
+from dolfinx_sfvem import interrupt, meshes
+
+import dolfinx
+import dolfinx.fem
+import numpy as np
+import pytest
+import ufl
+from petsc4py import PETSc
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
+K, MU = 5 / 3, 5 / 14
+
+
+def cbox(**options) -> sf.ContactProblem:
+    box = meshes.cbox(h_solid=0.1)
+    problem = sf.ContactProblem(box.mesh, {SOLID: sf.Hyperelastic(K=K, mu=MU),
+                                           MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-5, alpha_r=1.0)}, **options)
+    problem.fix(lambda x: np.isclose(x[0], 0.0))
+    problem.prescribe(lambda x: np.hypot(x[0] - 1.0, x[1] - 0.5) < 1e-10, uy=-0.4, name="load")
+    return problem
+
+
+def strip(**options) -> sf.ContactProblem:
+    problem = sf.ContactProblem(meshes.quad_rectangle(2.0, 0.2, 8, 2, tag=SOLID), {SOLID: sf.Hyperelastic(K=K, mu=MU)},
+                                **options)
+    problem.fix(lambda x: np.isclose(x[0], 0.0), name="clamped")
+    problem.prescribe(lambda x: np.isclose(x[0], 2.0), uy=-0.5, name="tip")
+    return problem
+
+
+# --------------------------------------------------------------------------- PETSc options
+@pytest.fixture
+def scripts_own_options():
+    """What a user's script does for its own solvers: global, unprefixed options."""
+    db = PETSc.Options()
+    db["snes_max_it"] = "1"
+    db["ksp_type"] = "cg"
+    yield db
+    db.delValue("snes_max_it")
+    db.delValue("ksp_type")
+
+
+def test_global_options_of_the_script_do_not_reach_the_library(scripts_own_options):
+    before = scripts_own_options.getAll()
+    result = cbox(verbose=False).solve(8)
+    assert result.converged, result.message
+    assert max(s["newton_iterations"] for s in result.steps) > 1
+    after = scripts_own_options.getAll()
+    assert after == before and not [k for k in after if k.startswith("tmc_")]
+
+
+def test_prefixed_options_reach_the_library():
+    db = PETSc.Options()
+    db["tmc_snes_max_it"] = "1"
+    try:
+        result = strip(verbose=False).solve(2, min_increment=0.5)
+    finally:
+        db.delValue("tmc_snes_max_it")
+    assert not result.converged and all(s["newton_iterations"] <= 2 for s in result.attempts)
+    mine = strip(verbose=False, petsc_options_prefix="mine_", petsc_options={"snes_max_it": 1})
+    assert not mine.solve(2, min_increment=0.5).converged
+    with pytest.raises(ValueError, match="petsc_options_prefix"):
+        strip(petsc_options_prefix="-bad")
+
+
+# --------------------------------------------------------------------------- logging
+class Collect(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.records = []
+
+    def emit(self, record):
+        self.records.append(record)
+
+
+@pytest.fixture
+def collect():
+    handler = Collect()
+    logger = logging.getLogger("dolfinx_sfvem")
+    level = logger.level
+    logger.addHandler(handler)
+    yield handler
+    logger.removeHandler(handler)
+    logger.setLevel(level)
+
+
+def test_a_handler_of_the_user_receives_the_progress(collect, capsys):
+    strip().solve(2)
+    lines = [r.getMessage() for r in collect.records if r.levelno == logging.INFO]
+    assert any(line.startswith("SFVEM space:") for line in lines)
+    assert sum(bool(re.match(r"step +\d+ +load", line)) for line in lines) == 2
+    assert capsys.readouterr().out == ""             # the library's console stepped aside
+
+
+def test_without_a_handler_the_library_prints_and_verbose_false_prints_nothing(capsys, collect):
+    logging.getLogger("dolfinx_sfvem").removeHandler(collect)
+    strip().solve(2)
+    assert re.search(r"step +2 +load", capsys.readouterr().out)
+    strip(verbose=False).solve(2)
+    assert capsys.readouterr().out == ""
+    logging.getLogger("dolfinx_sfvem").addHandler(collect)
+    logging.getLogger("dolfinx_sfvem").setLevel(logging.DEBUG)
+    strip(verbose=False).solve(2)
+    debug = [r.getMessage() for r in collect.records if r.levelno == logging.DEBUG]
+    assert sum(bool(re.match(r"step +\d+ +load", line)) for line in debug) == 2
+
+
+# --------------------------------------------------------------------------- interrupts
+def test_second_sigint_interrupts_at_once():
+    with interrupt.StopRequest(True) as stop:
+        signal.raise_signal(signal.SIGINT)
+        assert stop.signalled == signal.SIGINT
+        with pytest.raises(KeyboardInterrupt):
+            signal.raise_signal(signal.SIGINT)
+
+
+def test_no_handlers_off_the_main_thread_or_in_a_notebook_kernel(monkeypatch):
+    seen = []
+    thread = threading.Thread(target=lambda: seen.append(interrupt.handles_signals()))
+    thread.start()
+    thread.join()
+    assert seen == [False] and interrupt.handles_signals()
+
+    class ZMQInteractiveShell:
+        pass
+    monkeypatch.setitem(sys.modules, "IPython", types.SimpleNamespace(get_ipython=ZMQInteractiveShell))
+    assert interrupt.in_notebook_kernel() and not interrupt.handles_signals()
+    assert not interrupt.StopRequest().enabled
+
+
+def test_keyboard_interrupt_keeps_the_converged_steps_and_resumes(tmp_path):
+    """Ctrl-C in a notebook during step 3 (here: raised by an observer of step 3): the state is put
+    back to step 2, the outputs say so, and the run resumes to the uninterrupted result."""
+    def interrupting(problem):
+        if problem.load > 0.3:
+            raise KeyboardInterrupt
+        return 0.0
+    problem = strip(verbose=False)
+    with pytest.raises(KeyboardInterrupt):
+        problem.solve(10, out=tmp_path, observers={"w": interrupting}, handle_signals=False)
+    summary = sf.run_summary.read_summary(tmp_path)
+    assert "KeyboardInterrupt" in summary.message and not summary.converged
+    kept = summary.converged_steps
+    assert kept and problem.load == pytest.approx(kept[-1].load) and problem.load <= 0.3 + 1e-12
+    resumed = strip(verbose=False).solve(10, out=tmp_path, resume=True, observers={"w": lambda p: 0.0})
+    full = strip(verbose=False).solve(10, observers={"w": lambda p: 0.0})
+    assert resumed.converged and [s["load"] for s in resumed.steps] == [s["load"] for s in full.steps]
+
+
+# --------------------------------------------------------------------------- results
+def test_results_are_dolfinx_objects():
+    for method in ("vem", "fem"):
+        problem = cbox(method=method, verbose=False)
+        assert problem.solve(4).converged
+        u = problem.displacement()
+        degree = u.function_space.ufl_element().degree            # a method in UFL 2022, a property in 2026
+        assert isinstance(u, dolfinx.fem.Function) and (degree() if callable(degree) else degree) == 2
+        tags = problem.region_tags()
+        assert tags.dim == 2 and set(np.unique(tags.values)) == {SOLID, MEDIUM}
+        mesh = u.function_space.mesh
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=tags)
+        area = dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * dx(SOLID)))
+        assert mesh.comm.allreduce(area) == pytest.approx(problem.mesh.areas[problem.mesh.tags == SOLID].sum())
+        sigma = problem.stress()
+        assert isinstance(sigma, dolfinx.fem.Function) and sigma.ufl_shape == (2, 2)
+        assert np.all(np.isfinite(sigma.x.array)) and np.abs(sigma.x.array).max() > 0
+    with pytest.raises(ValueError, match="stress kind"):
+        problem.stress("von mises")
+
+
+# --------------------------------------------------------------------------- examples
+def test_module_docstring_example_runs():
+    failures, tried = doctest.testmod(dolfinx_sfvem.problem, optionflags=doctest.ELLIPSIS)
+    assert tried > 5 and failures == 0
+
+
+def test_readme_python_examples_run(tmp_path, monkeypatch):
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {})

@@ -1,0 +1,99 @@
+"""The package's modules import each other without a circle (module-level imports).
+
+The graph has an edge A -> B when importing A runs an import of B: the import statements of A's
+module body (also inside ``if``/``try`` blocks and class bodies), not those inside functions; those under
+``if TYPE_CHECKING:`` count (for a reader they tie the modules together as much). The ``__init__``
+of a parent package,
+which every submodule import runs first, is not counted.
+"""
+import ast
+import pathlib
+
+import dolfinx_sfvem
+
+PACKAGE = pathlib.Path(dolfinx_sfvem.__file__).parent
+
+
+def _module_level_imports(body: list[ast.stmt]):
+    for node in body:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node
+        elif isinstance(node, ast.If):          # typing.TYPE_CHECKING blocks count too: a circle for the reader
+            yield from _module_level_imports(node.body)
+            yield from _module_level_imports(node.orelse)
+        elif isinstance(node, ast.Try):
+            for block in (node.body, *(h.body for h in node.handlers), node.orelse, node.finalbody):
+                yield from _module_level_imports(block)
+        elif isinstance(node, (ast.With, ast.ClassDef)):
+            yield from _module_level_imports(node.body)
+
+
+def import_graph(root: pathlib.Path) -> dict[str, set[str]]:
+    """Module name -> the package modules its body imports, for the package in directory ``root``."""
+    files = {}
+    for path in root.rglob("*.py"):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph = {}
+    for name, path in files.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        targets = set()
+        for node in _module_level_imports(ast.parse(path.read_text()).body):
+            if isinstance(node, ast.Import):
+                targets.update(alias.name for alias in node.names)
+                continue
+            base = package.split(".")[:len(package.split(".")) - node.level + 1] if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            for alias in node.names:
+                submodule = f"{module}.{alias.name}"
+                targets.add(submodule if submodule in files else module)
+        graph[name] = {t for t in targets if t in files and t != name}
+    return graph
+
+
+def find_circle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle [a, b, ..., a] of the graph, or None."""
+    state: dict[str, int] = {}               # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for target in sorted(graph[node]):
+            if state.get(target) == 1:
+                return path[path.index(target):] + [target]
+            if target not in state and (circle := visit(target)):
+                return circle
+        state[node] = 2
+        path.pop()
+        return None
+
+    for node in sorted(graph):
+        if node not in state and (circle := visit(node)):
+            return circle
+    return None
+
+
+def test_the_checker_finds_a_circle(tmp_path):
+    """A package whose module a imports b (relative, in a function-free body) and b imports a
+    (absolute, inside a try block): one circle; c's TYPE_CHECKING import counts, its function-level
+    import does not."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from . import a\n")
+    (pkg / "a.py").write_text("from .b import f\n")
+    (pkg / "b.py").write_text("try:\n    import pkg.a\nexcept ImportError:\n    pass\n")
+    (pkg / "c.py").write_text("import typing\nif typing.TYPE_CHECKING:\n    from .a import f\n"
+                              "def g():\n    from . import a\n")
+    graph = import_graph(pkg)
+    assert graph == {"pkg": {"pkg.a"}, "pkg.a": {"pkg.b"}, "pkg.b": {"pkg.a"}, "pkg.c": {"pkg.a"}}
+    assert find_circle(graph) == ["pkg.a", "pkg.b", "pkg.a"]
+    assert find_circle({**graph, "pkg.b": set()}) is None
+
+
+def test_no_import_circle_in_the_package():
+    graph = import_graph(PACKAGE)
+    assert {"dolfinx_sfvem.polygon_mesh", "dolfinx_sfvem.refine", "dolfinx_sfvem.meshing.dual"} <= set(graph)
+    assert "dolfinx_sfvem.polygon_mesh" in graph["dolfinx_sfvem.refine"]
+    circle = find_circle(graph)
+    assert circle is None, "import circle: " + " -> ".join(circle)
