@@ -578,3 +578,150 @@ def _arch_builder(centre: tuple[float, float], radii: tuple[float, float], half_
         return {SOLID: [surface]}
 
     return build
+
+
+# --------------------------------------------------------------------------- a soft pneumatic actuator
+#: region tag of the actuator's strain-limiting base layer; its chambers are tagged from
+#: :data:`FIRST_CHAMBER` on, one tag per chamber
+BASE_LAYER = 3
+FIRST_CHAMBER = 4
+
+
+@dataclasses.dataclass(frozen=True)
+class PneuNet:
+    """Proportions of a PneuNet bending actuator in its length-height plane (mm).
+
+    Defaults: the PneuNets bending actuator of the Soft Robotics Toolkit (Harvard Biodesign Lab,
+    softroboticstoolkit.com, "PneuNets Bending Actuators", Mold Design CAD Tutorial), a fast
+    PneuNet in the sense of Mosadegh et al. 2014 (Adv. Funct. Mater. 24, 2163): chambers 8 mm
+    long and 15 mm high, 1 mm sidewalls (the walls facing the neighbouring chambers), the other
+    walls 2 mm, 2 mm between neighbouring chambers, 11 chambers. The toolkit's strain-limiting
+    layer (paper embedded in a cast elastomer plate) is modelled as one stiff layer of thickness
+    ``base`` under the main body (our choice: 1 mm).
+
+    Attributes
+    ----------
+    length, height : float
+        Outer length (along the actuator) and height (above the base layer) of one chamber.
+    sidewall : float
+        Thickness of the walls between neighbouring chambers.
+    wall : float
+        Thickness of the chambers' roofs and of the main body's floor under them.
+    spacing : float
+        Gap between the sidewalls of neighbouring chambers.
+    base : float
+        Thickness of the strain-limiting base layer.
+    """
+
+    length: float = 8.0
+    height: float = 15.0
+    sidewall: float = 1.0
+    wall: float = 2.0
+    spacing: float = 2.0
+    base: float = 1.0
+
+    def check(self) -> None:
+        """ValueError naming the first length that is not > 0 or a cavity that does not fit."""
+        _check_lengths(**dataclasses.asdict(self))
+        if not (2 * self.sidewall < self.length and 2 * self.wall < self.height):
+            raise ValueError(f"PneuNet: the walls leave no cavity: 2 x sidewall {self.sidewall!r} must be below "
+                             f"length {self.length!r} and 2 x wall {self.wall!r} below height {self.height!r}")
+
+    def chamber_x(self, i: int) -> tuple[float, float]:
+        """Left and right outer side x of chamber i (0-based; chamber 0 at the clamped end x = 0)."""
+        left = i * (self.length + self.spacing)
+        return left, left + self.length
+
+    def actuator_length(self, n_chambers: int) -> float:
+        return self.chamber_x(n_chambers - 1)[1]
+
+    @property
+    def floor(self) -> float:
+        """y of the floor's top: the bottom of the cavities and of the gaps between chambers."""
+        return self.base + self.wall
+
+    @property
+    def top(self) -> float:
+        """y of the chambers' tops."""
+        return self.base + self.height
+
+    def cavity(self, i: int) -> tuple[float, float, float, float]:
+        """Cavity of chamber i as (x0, x1, y0, y1)."""
+        left, right = self.chamber_x(i)
+        return left + self.sidewall, right - self.sidewall, self.floor, self.top - self.wall
+
+    def gap(self, i: int) -> tuple[float, float, float, float]:
+        """The gap between chambers i and i + 1 as (x0, x1, y0, y1), open at the top."""
+        return self.chamber_x(i)[1], self.chamber_x(i + 1)[0], self.floor, self.top
+
+    def body_outline(self, n_chambers: int) -> list[tuple[float, float]]:
+        """Counter-clockwise outline of the elastomer body (floor and chambers, a comb)."""
+        L = self.actuator_length(n_chambers)
+        outline = [(0.0, self.base), (L, self.base)]
+        for i in reversed(range(n_chambers)):
+            left, right = self.chamber_x(i)
+            if i < n_chambers - 1:
+                outline.append((right, self.floor))
+            outline += [(right, self.top), (left, self.top)]
+            if i > 0:
+                outline.append((left, self.floor))
+        return outline
+
+
+def _rectangle(x0: float, x1: float, y0: float, y1: float) -> list[tuple[float, float]]:
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def pneumatic_actuator(h: float = 0.5, n_chambers: int = 11, *, geometry: PneuNet = PneuNet(),
+                       medium_refinement: int = 2, keep_gmsh: str | os.PathLike | None = None) -> Benchmark:
+    """A PneuNet soft bending actuator in plane strain (the length-height section): an elastomer
+    body of closed chambers in a row on a strain-limiting base layer, the chambers filled with third
+    medium (for ``cavity_pressure``), the gaps between neighbouring chambers too (through them the
+    bulging sidewalls come into contact).
+
+    Geometry (:class:`PneuNet`, mm; defaults after the Soft Robotics Toolkit's PneuNet, Mosadegh et
+    al. 2014): x along the actuator, clamped end x = 0, free end x = L = n (length + spacing) -
+    spacing. Base layer [0, L] x [0, base]; on it the body: a floor [0, L] x [base, base + wall]
+    and the chambers [x_i, x_i + length] x [base, base + height], x_i = i (length + spacing), each
+    with the cavity [x_i + sidewall, x_i + length - sidewall] x [base + wall, base + height - wall];
+    between chambers i and i + 1 the gap [x_i + length, x_(i+1)] x [base + wall, base + height],
+    open at the top.
+
+    Mesh: the body and the base layer are duals (:func:`dual_polygons`) of gmsh triangle meshes of
+    size ``h`` whose straight sides carry ``round(length / h)`` equal segments, glued along y = base;
+    each cavity is a grid of quads of about h (the solid's interface midpoints hang in them), each
+    gap a grid of quads ``medium_refinement`` times finer (``axis_nodes``; 2: the quads end at the
+    sidewalls' dual midpoints too).
+
+    Regions: ``"elastomer"`` :data:`SOLID`, ``"gaps"`` :data:`MEDIUM`, ``"base"`` :data:`BASE_LAYER`,
+    ``"chamber_1"`` ... ``"chamber_n"`` tags :data:`FIRST_CHAMBER` + 0 ... n - 1 (each enclosed by
+    the body). Named points: ``clamp_bottom`` (0, 0), ``clamp_top`` (0, base + height),
+    ``tip_bottom`` (L, 0), ``tip_top`` (L, base + height) (the corners of the end faces), and
+    ``gap_i_left`` / ``gap_i_right`` (i = 1 ... n - 1) the mid-height points of the two sidewalls
+    facing each other across gap i. Named segments: ``clamp`` (x = 0) and ``tip`` (x = L).
+
+    ``keep_gmsh``: write the body's gmsh model to ``<keep_gmsh>.geo`` / ``.msh`` (:func:`write_gmsh`).
+    """
+    _check_lengths(h=h)
+    geometry.check()
+    if not (isinstance(n_chambers, (int, np.integer)) and n_chambers >= 1):
+        raise ValueError(f"n_chambers must be an integer >= 1, got {n_chambers!r}")
+    if int(medium_refinement) != medium_refinement or medium_refinement < 1:
+        raise ValueError(f"medium_refinement must be a positive integer, got {medium_refinement!r}")
+    g, n = geometry, int(n_chambers)
+    L = g.actuator_length(n)
+    cavities, gaps = [g.cavity(i) for i in range(n)], [g.gap(i) for i in range(n - 1)]
+    parts = [dual_of_gmsh(straight_region([g.body_outline(n)] + [_rectangle(*c) for c in cavities], SOLID), h,
+                          keep_gmsh),
+             dual_of_gmsh(straight_region([_rectangle(0.0, L, 0.0, g.base)], BASE_LAYER), h)]
+    parts += [quad_grid(axis_nodes([x0, x1], h), axis_nodes([y0, y1], h), FIRST_CHAMBER + i)
+              for i, (x0, x1, y0, y1) in enumerate(cavities)]
+    parts += [quad_grid(axis_nodes([x0, x1], h, medium_refinement), axis_nodes([y0, y1], h, medium_refinement),
+                        MEDIUM) for x0, x1, y0, y1 in gaps]
+    regions = {"elastomer": SOLID, "gaps": MEDIUM, "base": BASE_LAYER,
+               **{f"chamber_{i + 1}": FIRST_CHAMBER + i for i in range(n)}}
+    middle = 0.5 * (g.floor + g.top)
+    points = {"clamp_bottom": (0.0, 0.0), "clamp_top": (0.0, g.top), "tip_bottom": (L, 0.0), "tip_top": (L, g.top)}
+    for i, (x0, x1, _, _) in enumerate(gaps):
+        points.update({f"gap_{i + 1}_left": (x0, middle), f"gap_{i + 1}_right": (x1, middle)})
+    return Benchmark(glue(*parts), regions, points, {"clamp": ((0.0, 0.0), (0.0, g.top)), "tip": ((L, 0.0), (L, g.top))})

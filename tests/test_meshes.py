@@ -253,9 +253,9 @@ def test_box(boxes, m):
     assert_same_solid(boxes[1].mesh, mesh)
 
 
-def assert_named_vertices(bench: meshes.Benchmark) -> None:
+def assert_named_vertices(bench: meshes.Benchmark, atol: float = 1e-12) -> None:
     for name, xy in bench.points.items():
-        assert np.allclose(bench.mesh.points[bench.vertex(name)], xy, rtol=0, atol=1e-12)
+        assert np.allclose(bench.mesh.points[bench.vertex(name)], xy, rtol=0, atol=atol)
     for name, (a, b) in bench.segments.items():
         on = bench.mesh.points[bench.vertices_on(name)]
         assert len(on) >= 3
@@ -286,6 +286,37 @@ def test_multi_object():
     assert_polygons_in(mesh, 3, [(x - 0.2, x + 0.2, 0.3, 0.5) for x in range(1, 8)])
     assert meshes.t_junctions(mesh).size == 0
     assert_named_vertices(bench)
+
+
+def test_pneumatic_actuator():
+    """Two chambers of the default PneuNet: region areas from the proportions (body = chambers and
+    floor minus cavities), every polygon inside its box, the named corners and sidewall points."""
+    g = meshes.PneuNet()
+    bench = meshes.pneumatic_actuator(h=1.0, n_chambers=2)
+    mesh, L = bench.mesh, 2 * g.length + g.spacing
+    cavity = (g.length - 2 * g.sidewall) * (g.height - 2 * g.wall)
+    body = 2 * g.length * g.height + g.spacing * g.wall - 2 * cavity
+    chambers = {meshes.FIRST_CHAMBER: cavity, meshes.FIRST_CHAMBER + 1: cavity}
+    assert_valid(mesh, {SOLID: body, MEDIUM: g.spacing * (g.height - g.wall), meshes.BASE_LAYER: L * g.base,
+                        **chambers})
+    assert bench.regions == {"elastomer": SOLID, "gaps": MEDIUM, "base": meshes.BASE_LAYER,
+                             "chamber_1": meshes.FIRST_CHAMBER, "chamber_2": meshes.FIRST_CHAMBER + 1}
+    floor, top = g.base + g.wall, g.base + g.height
+    assert_polygons_in(mesh, meshes.FIRST_CHAMBER, [(g.sidewall, g.length - g.sidewall, floor, top - g.wall)])
+    assert_polygons_in(mesh, MEDIUM, [(g.length, g.length + g.spacing, floor, top)])
+    assert_polygons_in(mesh, meshes.BASE_LAYER, [(0, L, 0, g.base)])
+    assert bench.points["tip_top"] == (L, top) and bench.points["gap_1_right"] == (g.length + g.spacing, 9.5)
+    assert_named_vertices(bench, atol=1e-10)        # the sidewall points: vertices of gmsh's edge nodes
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ({"h": 0.0}, "h must be"), ({"n_chambers": 0}, "n_chambers"), ({"n_chambers": 2.5}, "n_chambers"),
+    ({"medium_refinement": 0}, "medium_refinement"),
+    ({"geometry": meshes.PneuNet(spacing=-1.0)}, "spacing must be"),
+    ({"geometry": meshes.PneuNet(sidewall=4.0)}, "no cavity: 2 x sidewall 4.0")])
+def test_pneumatic_actuator_rejects_bad_input(arguments, message):
+    with pytest.raises(ValueError, match=message):
+        meshes.pneumatic_actuator(**arguments)
 
 
 def test_named_point_must_be_vertex(boxes):
