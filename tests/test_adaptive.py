@@ -160,7 +160,6 @@ def test_study_script_reduced_run(tmp_path):
 
 def test_demo_displacement_observer_follows_a_refinement():
     """The demos' point observers find their node again on a refined mesh."""
-    sys.path.insert(0, str(DEMOS))
     import _common as common
     problem = pressed_blocks()
     observe = common.displacement_observer(problem, common.at_point((0.5, 1.2)), 1)

@@ -5,17 +5,12 @@ is the honest outcome), the smallest gap over the load path, the force change ag
 coarser mesh, and that the planned runs are the demos' own options."""
 from __future__ import annotations
 
-import pathlib
-import sys
-
 import pytest
+import refinement
+import results_runner
 
 from dolfinx_sfvem.run_summary import RunSummary
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
-import refinement  # noqa: E402
-import results_runner  # noqa: E402
-from test_results import summary, write  # noqa: E402
+from test_results import summary, write
 
 
 def with_gaps(content: dict, gaps, overlap: float = 0.0) -> dict:

@@ -8,16 +8,14 @@ from __future__ import annotations
 import fnmatch
 import json
 import pathlib
-import sys
 
 import pytest
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
-import box_self_contact as box  # noqa: E402
-from dolfinx_sfvem import paper  # noqa: E402
-import results_plan  # noqa: E402
-import results_report  # noqa: E402
-import results_runner  # noqa: E402
+import box_self_contact as box
+import results_plan
+import results_report
+import results_runner
+from dolfinx_sfvem import paper
 
 
 def summary(*, converged: bool = True, loads=(0.5, 1.0), force: float = 2.0, extra: dict | None = None,
