@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 from test_demos import DEMOS
-from test_refine import MEDIUM, OTHER, SOLID, K, MU, two_blocks
+from test_local_refinement import MEDIUM, OTHER, SOLID, K, MU, two_blocks
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.adaptivity import smallest_J

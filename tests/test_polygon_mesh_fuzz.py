@@ -6,7 +6,7 @@ from matplotlib.path import Path
 
 from dolfinx_sfvem.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.polygon import sub_triangulate
-from test_mesh import COMB, SPIRAL, STAR_L, assert_deepest_diagonal, assert_valid_mesh, assert_valid_triangulation, \
+from test_polygon_mesh import COMB, SPIRAL, STAR_L, assert_deepest_diagonal, assert_valid_mesh, assert_valid_triangulation, \
     glue, hanging_mesh, square_grid
 
 N_CASES = 200
