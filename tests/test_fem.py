@@ -28,7 +28,6 @@ from dolfinx_sfvem.fem import LagrangeDiscretization
 from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
 from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.remesh import p2_unknowns, triangulate
-from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
 
 STEP = 1e-6
 RTOL = 1e-6
@@ -278,27 +277,27 @@ def test_cbox_medium_keeps_the_beams_apart(method, options):
     assert solid_vertices_inside_medium(problem) == 0
 
 
-def solve_errors_fem(h, comm=MPI.COMM_WORLD, quads=False):
-    """(h, L2 error, H1 error) of the FEM solution of test_convergence's problem: P2 on triangles of
-    size h, or Q2 on squares of size h (``quads``)."""
+def solve_errors_fem(h, manufactured, comm=MPI.COMM_WORLD, quads=False):
+    """(h, L2 error, H1 error) of the FEM solution of the manufactured problem (conftest.py): P2 on
+    triangles of size h, or Q2 on squares of size h (``quads``)."""
     square = sf.meshes.quad_rectangle(1.0, 1.0, 1, 1)
-    energy = sf.UserEnergy(small_strain, uses_gradient=False, lam=LAM, mu=MU)
     cells = {"fem_mesh": sf.meshes.quad_rectangle(1.0, 1.0, round(1 / h), round(1 / h))} if quads else {"fem_h": h}
-    problem = sf.ContactProblem(square, {0: energy}, method="fem", comm=comm, verbose=False, **cells)
-    problem.fix(on_boundary)
-    problem.body_force(body_force)
+    problem = sf.ContactProblem(square, {0: manufactured.energy()}, method="fem", comm=comm, verbose=False, **cells)
+    problem.fix(manufactured.on_boundary)
+    problem.body_force(manufactured.body_force)
     assert problem.solve(steps=1).converged
-    return (h, *problem.disc.error_norms(problem.x, u_exact, grad_exact))
+    return (h, *problem.disc.error_norms(problem.x, manufactured.u_exact, manufactured.grad_exact))
 
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("quads", [False, True])
-def test_manufactured_solution_rates(quads):
-    results = [solve_errors_fem(h, quads=quads) for h in (0.2, 0.1, 0.05)]
-    rate_L2, rate_H1 = rates(results)
+def test_manufactured_solution_rates(quads, manufactured):
+    results = [solve_errors_fem(h, manufactured, quads=quads) for h in (0.2, 0.1, 0.05)]
+    rate_L2, rate_H1 = manufactured.rates(results)
     assert 2.7 <= rate_L2 <= 3.5, (rate_L2, results)
     assert 1.8 <= rate_H1 <= 2.4, (rate_H1, results)
-    assert results[-1][1] < 1e-3 * AMPLITUDE and results[-1][2] < 1e-2 * AMPLITUDE
+    a = manufactured.AMPLITUDE
+    assert results[-1][1] < 1e-3 * a and results[-1][2] < 1e-2 * a
 
 
 @pytest.mark.mpi
