@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import ufl
 from matplotlib.path import Path
+from mpi4py import MPI
 from scipy.spatial import ConvexHull
 
 import dolfinx_sfvem as sf
@@ -291,3 +292,63 @@ class ManufacturedSolution:
 
 
 manufactured_fixture = pytest.fixture(scope="session", name="manufactured")(lambda: ManufacturedSolution)
+
+
+# =========================================================================== states of a discretization
+def two_region_materials(regularization: str = "rotation", beta: float | None = None) -> dict:
+    """Region 1 a solid, region 2 a medium whose regularization is as large as its bulk part
+    (test_energy's values)."""
+    return {1: sf.Hyperelastic(K=2.0, mu=0.7),
+            2: sf.ThirdMedium(mu=0.3, gamma=1.5, alpha_r=1.0 if beta is None else 150.0, K=0.2,
+                              regularization=regularization, beta=beta)}
+
+
+def nodal_field(disc, values):
+    """A ghosted vector with ``values(x (n, 2), key (n,)) -> (n, 2)`` at every local node."""
+    x = disc.create_vector()
+    with x.localForm() as xl:
+        xl.array[:] = values(disc.x_nodes, disc.node_key).ravel()
+    return x
+
+
+def state_of(disc):
+    """A smooth finite deformation plus node-key noise (partition independent)."""
+    def values(X, key):
+        smooth = 0.1 * np.stack([np.sin(2 * X[:, 0] + X[:, 1]), np.cos(X[:, 0] - 2 * X[:, 1])], axis=1)
+        return smooth + 0.01 * np.stack([np.sin(12.9898 * key), np.sin(78.233 * key)], axis=1)
+    return nodal_field(disc, values)
+
+
+def direction_of(disc):
+    """A direction of node-key noise (partition independent)."""
+    return nodal_field(disc, lambda X, key: np.stack([np.cos(3.7 * key), np.sin(5.3 * key + 1.0)], axis=1))
+
+
+two_region_materials_fixture = shared(two_region_materials)
+nodal_field_fixture = shared(nodal_field)
+state_of_fixture = shared(state_of)
+direction_of_fixture = shared(direction_of)
+
+
+# =========================================================================== a block on one rank
+class Block:
+    """A 1 x 0.2 block of 5 x 2 quadrilaterals (region ``meshes.SOLID``), on one rank."""
+
+    HEIGHT = 0.2
+
+    @classmethod
+    def mesh(cls) -> sf.PolygonMesh:
+        return sf.meshes.quad_rectangle(1.0, cls.HEIGHT, 5, 2, tag=sf.meshes.SOLID)
+
+    @classmethod
+    def compressed(cls, uy: float) -> sf.ContactProblem:
+        """The block of the neo-Hookean solid K = 5/3, mu = 5/14, clamped below ("bottom"), its top
+        face ("top") moved by (0, uy)."""
+        problem = sf.ContactProblem(cls.mesh(), {sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)},
+                                    comm=MPI.COMM_SELF, verbose=False)
+        problem.fix(lambda x: np.isclose(x[1], 0.0), name="bottom")
+        problem.prescribe(lambda x: np.isclose(x[1], cls.HEIGHT), ux=0.0, uy=uy, name="top")
+        return problem
+
+
+block_fixture = pytest.fixture(scope="session", name="block")(lambda: Block)
