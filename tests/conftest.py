@@ -5,6 +5,9 @@ each other).
   test_local_refinement): the polygons by name, the zero-eigenvalue table of docs/method.md §3,
   Green's-formula moments, quadratic fields with their exact derivatives, the patch test.
 """
+import json
+import pathlib
+
 import numpy as np
 import pytest
 import ufl
@@ -352,3 +355,139 @@ class Block:
 
 
 block_fixture = pytest.fixture(scope="session", name="block")(lambda: Block)
+
+
+# =========================================================================== summary.json files
+def summary_content(*, converged: bool = True, loads=(0.5, 1.0), force: float = 2.0, extra: dict | None = None,
+            method: str = "vem", ranks: int = 2, uy: float = -1.0, condition: str = "load") -> dict:
+    """A summary.json content with one converged step per load factor (the force grows linearly)."""
+    steps = [{"step": k + 1, "load": load, "newton_iterations": 3, "converged": True,
+              "reaction": {condition: [0.0, -force * load]}, "extra": dict(extra or {})}
+             for k, load in enumerate(loads)]
+    return {"method": method, "dofs": 1234, "ranks": ranks, "wall_time_s": 12.5, "converged": converged,
+            "message": "" if converged else f"step {len(loads) + 1}: load step failed",
+            "polygons": 100, "projection_order_histogram": {"3": 90, "4": 10},
+            "parameters": {"method": method, "uy": uy}, "steps": steps}
+
+
+def write_summary(directory: pathlib.Path, content: dict) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "summary.json").write_text(json.dumps(content))
+
+
+summary_content_fixture = shared(summary_content)
+write_summary_fixture = shared(write_summary)
+
+
+# =========================================================================== PolygonMesh builders and checks
+def shoelace(xy):
+    x, y = np.asarray(xy, dtype=float).T
+    return 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def square_grid(nx, ny, h=1.0, x0=0.0, y0=0.0):
+    """Points and CCW vertex lists of an nx x ny grid of squares of side h."""
+    x, y = np.meshgrid(x0 + h * np.arange(nx + 1), y0 + h * np.arange(ny + 1))
+    points = np.column_stack([x.ravel(), y.ravel()])
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    polygons = [[idx[j, i], idx[j, i + 1], idx[j + 1, i + 1], idx[j + 1, i]] for j in range(ny) for i in range(nx)]
+    return points, polygons
+
+
+def assert_valid_triangulation(xy, triangles, interior, extra):
+    """``triangles`` (into vstack(xy, extra)) form a CCW triangulation of the CCW polygon ``xy``
+    in which every polygon edge is an edge of exactly one triangle, and the interior DOF point
+    (midpoint of nodes interior[0], interior[1]) lies strictly inside the polygon."""
+    n = len(xy)
+    nodes = np.vstack([xy, extra])
+    areas = np.array([shoelace(nodes[t]) for t in triangles])
+    scale = np.ptp(xy, axis=0).max()
+    assert np.all(areas > 1e-12 * scale**2)
+    assert np.isclose(areas.sum(), shoelace(xy), rtol=1e-12)
+    directed = [(t[k], t[(k + 1) % 3]) for t in triangles for k in range(3)]
+    assert len(set(directed)) == len(directed)
+    boundary = {(i, (i + 1) % n) for i in range(n)}
+    assert boundary <= set(directed)  # each polygon edge once (directed edges are unique) ...
+    assert not any((b, a) in directed for a, b in boundary)  # ... and never reversed
+    for a, b in set(directed) - boundary:  # every other edge is interior: shared by two triangles
+        assert (b, a) in directed
+    assert len(extra) == (1 if interior[0] == interior[1] else 0)
+    dof_point = 0.5 * (nodes[interior[0]] + nodes[interior[1]])
+    assert Path(xy).contains_point(dof_point)
+    assert min(distance_to_segment(dof_point, xy[a], xy[b]) for a, b in boundary) > 1e-9 * scale
+
+
+def assert_deepest_diagonal(xy, triangles, interior):
+    """The interior DOF of an ear-clipped polygon sits on the diagonal whose midpoint is deepest inside."""
+    n = len(xy)
+    diagonals = {tuple(sorted((t[k], t[(k + 1) % 3]))) for t in triangles for k in range(3)}
+    diagonals -= {tuple(sorted((i, (i + 1) % n))) for i in range(n)}
+    depth = {d: min(distance_to_segment(0.5 * (xy[d[0]] + xy[d[1]]), xy[i], xy[(i + 1) % n]) for i in range(n))
+             for d in diagonals}
+    assert len(diagonals) == n - 3
+    assert np.isclose(depth[tuple(sorted(interior))], max(depth.values()))
+
+
+def assert_valid_mesh(mesh):
+    """Every polygon CCW with positive area and a valid sub-triangulation in mesh numbering."""
+    assert mesh.offsets[0] == 0 and mesh.offsets[-1] == mesh.vertices.size
+    assert mesh.triangle_offsets[-1] == mesh.triangles.shape[0]
+    nodes = mesh.nodes
+    for i in range(mesh.n_polygons):
+        verts = mesh.polygon(i)
+        assert len(set(verts.tolist())) == verts.size >= 3
+        xy = mesh.points[verts]
+        assert shoelace(xy) > 0
+        local = {v: k for k, v in enumerate(verts.tolist())}
+        tri = mesh.triangles[mesh.triangle_offsets[i]:mesh.triangle_offsets[i + 1]]
+        fan = sorted(set(tri.ravel().tolist()) - set(local))
+        assert len(fan) <= 1 and all(f >= mesh.n_points for f in fan)
+        local.update({f: verts.size for f in fan})
+        extra = nodes[fan]
+        assert_valid_triangulation(xy, np.vectorize(local.get)(tri),
+                                   [local[v] for v in mesh.interior_node[i]], extra)
+
+
+def hanging_mesh(k, listed):
+    """k + 1 squares of side s = 1/(k+1) on [0, 1] x [0, s] below the unit square [0, 1] x [s, 1+s],
+    whose bottom side holds the k inner points of the fine row's top side; they are listed in its
+    vertex list if ``listed``. Returns points, polygons (the big square last), the k points."""
+    s = 1.0 / (k + 1)
+    fine_points, fine = square_grid(k + 1, 1, h=s)
+    n = len(fine_points)
+    points = np.vstack([fine_points, [[1.0, 1.0 + s], [0.0, 1.0 + s]]])
+    top = list(range(k + 2, n))  # (0, s), ..., (1, s) left to right
+    big = [top[0]] + (top[1:-1] if listed else []) + [top[-1], n, n + 1]
+    return points, fine + [big], top[1:-1]
+
+
+def glue(*blocks):
+    """Concatenate (points, polygons) blocks and merge coincident points."""
+    points = np.vstack([b[0] for b in blocks])
+    offsets = np.cumsum([0] + [len(b[0]) for b in blocks])
+    merged, inverse = np.unique(points.round(12), axis=0, return_inverse=True)
+    return merged, [[int(inverse[v + o]) for v in p] for (_, polygons), o in zip(blocks, offsets) for p in polygons]
+
+
+def distance_to_segment(p, a, b):
+    t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+    return np.hypot(*(p - a - t * (b - a)))
+
+
+class NonconvexPolygons:
+    """Counter-clockwise polygons (n, 2): an L (star-shaped), a comb and a spiral (not star-shaped)."""
+
+    STAR_L = np.array([(0, 0), (2, 0), (2, .2), (.2, .2), (.2, 2), (0, 2)], dtype=float)  # kernel [0,.2]^2
+    COMB = np.array([(0, 0), (5, 0), (5, 3), (4, 3), (4, 1), (3, 1), (3, 3), (2, 3), (2, 1), (1, 1), (1, 3), (0, 3)],
+                    dtype=float)  # empty kernel
+    SPIRAL = np.array([(0, 0), (4, 0), (4, 4), (1, 4), (1, 2), (2, 2), (2, 3), (3, 3), (3, 1), (0, 1)], dtype=float)
+
+
+shoelace_fixture = shared(shoelace)
+square_grid_fixture = shared(square_grid)
+assert_valid_triangulation_fixture = shared(assert_valid_triangulation)
+assert_deepest_diagonal_fixture = shared(assert_deepest_diagonal)
+assert_valid_mesh_fixture = shared(assert_valid_mesh)
+hanging_mesh_fixture = shared(hanging_mesh)
+glue_fixture = shared(glue)
+nonconvex_fixture = pytest.fixture(scope="session", name="nonconvex")(lambda: NonconvexPolygons)
