@@ -1,9 +1,20 @@
-"""Fixtures shared by several test modules (pytest finds them here; test modules do not import
-each other).
+"""Fixtures shared by several test modules: pytest hands them to any test that names them as an
+argument, so test modules never import each other. Most are helpers (a function or class)
+returned as they are; ``polygon`` and ``tabulated_name`` run a test once per test polygon.
 
 - Test polygons and reference maths for the projections (test_projection, test_elasticity,
-  test_local_refinement): the polygons by name, the zero-eigenvalue table of docs/method.md §3,
-  Green's-formula moments, quadratic fields with their exact derivatives, the patch test.
+  test_local_refinement): ``polygons``, ``polygon``, ``zero_eigenvalue_table`` (docs/method.md §3),
+  ``tabulated_name``, ``as_csr``, ``build_one``, ``polygon_moments`` (Green's formulas),
+  ``Quadratic``, ``monomials_at``, ``check_patch``, ``zero_eigenvalues``, ``square_with_hanging_nodes``.
+- ``two_blocks``: two blocks across a medium layer (test_local_refinement, test_adaptive).
+- ``manufactured``: the manufactured small-strain solution (test_convergence, test_fem).
+- ``two_region_materials``, ``nodal_field``, ``state_of``, ``direction_of``: a solid and a medium
+  region and states of a discretization (test_fem, test_discretization).
+- ``block``: a block on one rank (test_solver, test_run_summary).
+- ``summary_content``, ``write_summary``: summary.json files (test_results, test_refinement_page).
+- PolygonMesh builders and checks (test_polygon_mesh, test_polygon_mesh_fuzz): ``square_grid``,
+  ``hanging_mesh``, ``glue``, ``shoelace``, ``assert_valid_mesh``, ``assert_valid_triangulation``,
+  ``assert_deepest_diagonal``, ``nonconvex`` (polygons to triangulate).
 """
 import json
 import pathlib
@@ -20,10 +31,10 @@ from dolfinx_sfvem.monomials import evaluate_monomials, n_monomials
 from dolfinx_sfvem.projection import build_projections
 
 
-def shared(helper):
-    """A session fixture named like ``helper`` (a function or class) that returns it: how test
-    modules share a helper without importing each other."""
-    return pytest.fixture(scope="session", name=helper.__name__)(lambda: helper)
+def shared(helper, name: str | None = None):
+    """A session fixture named ``name`` (default: the helper's own name) that returns ``helper``
+    (a function or class): how test modules share a helper without importing each other."""
+    return pytest.fixture(scope="session", name=name or helper.__name__)(lambda: helper)
 
 
 # =========================================================================== test polygons
@@ -238,7 +249,7 @@ class TwoBlocks:
                 cls.OTHER: sf.Hyperelastic(K=cls.K, mu=cls.MU)}
 
 
-two_blocks_fixture = pytest.fixture(scope="session", name="two_blocks")(lambda: TwoBlocks)
+two_blocks_fixture = shared(TwoBlocks, "two_blocks")
 
 
 # =========================================================================== manufactured solution
@@ -294,7 +305,7 @@ class ManufacturedSolution:
         return np.polyfit(np.log(h), np.log(e0), 1)[0], np.polyfit(np.log(h), np.log(e1), 1)[0]
 
 
-manufactured_fixture = pytest.fixture(scope="session", name="manufactured")(lambda: ManufacturedSolution)
+manufactured_fixture = shared(ManufacturedSolution, "manufactured")
 
 
 # =========================================================================== states of a discretization
@@ -354,7 +365,7 @@ class Block:
         return problem
 
 
-block_fixture = pytest.fixture(scope="session", name="block")(lambda: Block)
+block_fixture = shared(Block, "block")
 
 
 # =========================================================================== summary.json files
@@ -490,4 +501,4 @@ assert_deepest_diagonal_fixture = shared(assert_deepest_diagonal)
 assert_valid_mesh_fixture = shared(assert_valid_mesh)
 hanging_mesh_fixture = shared(hanging_mesh)
 glue_fixture = shared(glue)
-nonconvex_fixture = pytest.fixture(scope="session", name="nonconvex")(lambda: NonconvexPolygons)
+nonconvex_fixture = shared(NonconvexPolygons, "nonconvex")
