@@ -89,7 +89,6 @@ ZERO_EIGENVALUES = {
 }
 
 
-
 def as_csr(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     points = np.vstack(polygons)
     offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
@@ -184,7 +183,6 @@ def check_patch(xy: np.ndarray, P, rtol: float, seed: int) -> None:
         np.testing.assert_allclose(hessian, exact, rtol=0, atol=rtol * np.abs(exact).max())
 
 
-
 def zero_eigenvalues(K: np.ndarray) -> int:
     """Eigenvalues below 1e-10 lambda_max (round-off sits near 1e-16, the smallest genuine ones
     of the test polygons above 1e-5)."""
@@ -214,16 +212,6 @@ def zero_eigenvalue_table() -> dict[str, list[int]]:
 def tabulated_name(request) -> str:
     """Each polygon of the zero-eigenvalue table in turn (the test id is its name)."""
     return request.param
-
-
-square_with_hanging_nodes_fixture = shared(square_with_hanging_nodes)
-Quadratic_fixture = shared(Quadratic)
-as_csr_fixture = shared(as_csr)
-build_one_fixture = shared(build_one)
-polygon_moments_fixture = shared(polygon_moments)
-monomials_at_fixture = shared(monomials_at)
-check_patch_fixture = shared(check_patch)
-zero_eigenvalues_fixture = shared(zero_eigenvalues)
 
 
 # =========================================================================== two blocks across a medium
@@ -338,12 +326,6 @@ def direction_of(disc):
     return nodal_field(disc, lambda X, key: np.stack([np.cos(3.7 * key), np.sin(5.3 * key + 1.0)], axis=1))
 
 
-two_region_materials_fixture = shared(two_region_materials)
-nodal_field_fixture = shared(nodal_field)
-state_of_fixture = shared(state_of)
-direction_of_fixture = shared(direction_of)
-
-
 # =========================================================================== a block on one rank
 class Block:
     """A 1 x 0.2 block of 5 x 2 quadrilaterals (region ``meshes.SOLID``), on one rank."""
@@ -384,10 +366,6 @@ def summary_content(*, converged: bool = True, loads=(0.5, 1.0), force: float = 
 def write_summary(directory: pathlib.Path, content: dict) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "summary.json").write_text(json.dumps(content))
-
-
-summary_content_fixture = shared(summary_content)
-write_summary_fixture = shared(write_summary)
 
 
 # =========================================================================== PolygonMesh builders and checks
@@ -494,11 +472,16 @@ class NonconvexPolygons:
     SPIRAL = np.array([(0, 0), (4, 0), (4, 4), (1, 4), (1, 2), (2, 2), (2, 3), (3, 3), (3, 1), (0, 1)], dtype=float)
 
 
-shoelace_fixture = shared(shoelace)
-square_grid_fixture = shared(square_grid)
-assert_valid_triangulation_fixture = shared(assert_valid_triangulation)
-assert_deepest_diagonal_fixture = shared(assert_deepest_diagonal)
-assert_valid_mesh_fixture = shared(assert_valid_mesh)
-hanging_mesh_fixture = shared(hanging_mesh)
-glue_fixture = shared(glue)
 nonconvex_fixture = shared(NonconvexPolygons, "nonconvex")
+
+
+# =========================================================================== the helpers as fixtures
+# one session fixture per shared helper, named like it (pytest collects the fixtures it finds among
+# the module's names)
+for _helper in (square_with_hanging_nodes, Quadratic, as_csr, build_one, polygon_moments, monomials_at, check_patch,
+                zero_eigenvalues,
+                two_region_materials, nodal_field, state_of, direction_of,
+                summary_content, write_summary,
+                shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh, hanging_mesh,
+                glue):
+    globals()[f"{_helper.__name__}_fixture"] = shared(_helper)
