@@ -482,6 +482,6 @@ for _helper in (square_with_hanging_nodes, Quadratic, as_csr, build_one, polygon
                 zero_eigenvalues,
                 two_region_materials, nodal_field, state_of, direction_of,
                 summary_content, write_summary,
-                shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh, hanging_mesh,
-                glue):
+                shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh,
+                hanging_mesh, glue):
     globals()[f"{_helper.__name__}_fixture"] = shared(_helper)
