@@ -7,8 +7,8 @@ of a parent package,
 which every submodule import runs first, is not counted.
 
 The test modules do not import each other (nor conftest.py, whose fixtures pytest hands to the
-tests) and do not edit ``sys.path`` (demos/ is importable through pytest's ``pythonpath``
-option in pyproject.toml).
+tests) and do not edit ``sys.path`` (demos/, bench/ and docs/_ext/ are importable through
+pytest's ``pythonpath`` option in pyproject.toml).
 """
 import ast
 import pathlib
