@@ -2,7 +2,8 @@
 
 References from outside the code under test: J of a homogeneous compression computed by hand,
 the polygons an indicator marks recomputed from the mesh, the unknowns of a rebuilt
-discretization, and the files written by the run read back through the typed reader.
+discretization, and the files written by the run read back through the typed reader. The two
+blocks across a medium layer are conftest.py's ``two_blocks``.
 """
 import json
 import pathlib
@@ -11,51 +12,48 @@ import sys
 
 import numpy as np
 import pytest
-from test_demos import DEMOS
-from test_refine import MEDIUM, OTHER, SOLID, K, MU, two_blocks
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.adaptivity import smallest_J
 from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.run_summary import read_summary
 
-MATERIALS = {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-5, alpha_r=1.0),
-             OTHER: sf.Hyperelastic(K=K, mu=MU)}
+DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
 
-def pressed_blocks(mesh: sf.PolygonMesh = None) -> sf.ContactProblem:
-    """Two blocks across a medium layer 0.2 thick; the upper block pushed down by 0.12."""
-    problem = sf.ContactProblem(mesh or two_blocks(), MATERIALS, verbose=False)
+def pressed_blocks(two_blocks, mesh: sf.PolygonMesh = None) -> sf.ContactProblem:
+    """Two blocks across a medium layer 0.2 thick (or ``mesh``); the upper block pushed down by 0.12."""
+    problem = sf.ContactProblem(mesh or two_blocks.mesh(), two_blocks.materials(), verbose=False)
     problem.fix(lambda x: np.isclose(x[1], 0.0))
     problem.prescribe(lambda x: np.isclose(x[1], 2.2), uy=-0.12, name="press")
     return problem
 
 
-def test_compression_marks_the_medium_below_the_threshold():
+def test_compression_marks_the_medium_below_the_threshold(two_blocks):
     """u = (0, -y/2): J = 1/2 everywhere; only medium polygons can be marked."""
-    problem = sf.ContactProblem(two_blocks(), MATERIALS, verbose=False)
+    problem = sf.ContactProblem(two_blocks.mesh(), two_blocks.materials(), verbose=False)
     problem.set_displacement(uy=lambda x: -0.5 * x[1])
     np.testing.assert_allclose(smallest_J(problem), 0.5, rtol=0, atol=1e-12)
-    medium = problem.mesh.tags == MEDIUM
+    medium = problem.mesh.tags == two_blocks.MEDIUM
     np.testing.assert_array_equal(sf.Compression(J_below=0.6)(problem), medium)
     assert not sf.Compression(J_below=0.4)(problem).any()
     with pytest.raises(ValueError, match="J_below must lie in"):
         sf.Compression(J_below=1.5)
 
 
-def test_unknowns_of_a_refined_mesh():
-    mesh = two_blocks().refine(lambda x: x[0] < 0.5, tags=[MEDIUM], levels=2).mesh
-    assert sfvem_unknowns(mesh) == sf.ContactProblem(mesh, MATERIALS, verbose=False).disc.num_dofs_global
+def test_unknowns_of_a_refined_mesh(two_blocks):
+    mesh = two_blocks.mesh().refine(lambda x: x[0] < 0.5, tags=[two_blocks.MEDIUM], levels=2).mesh
+    assert sfvem_unknowns(mesh) == sf.ContactProblem(mesh, two_blocks.materials(), verbose=False).disc.num_dofs_global
 
 
 @pytest.mark.mpi
-def test_adaptive_path_refines_where_the_indicator_says_within_the_limits(tmp_path):
+def test_adaptive_path_refines_where_the_indicator_says_within_the_limits(tmp_path, two_blocks):
     """An indicator marking the left half (medium and solid alike): only medium polygons of the left
     half are split, at most twice, one level after each converged step; every step records its
     unknowns and the polygons split after it, in summary.json and load_path.csv."""
     left = lambda p: p.mesh.centroids[:, 0] < 0.5                             # noqa: E731
     adapt = sf.Adaptivity(indicator=left, max_levels=2)
-    problem = pressed_blocks()
+    problem = pressed_blocks(two_blocks)
     coarse = problem.mesh
     out = pathlib.Path(problem.comm.bcast(str(tmp_path), root=0)) / "run"     # one directory for all ranks
     result = problem.solve(steps=4, out=out, adapt=adapt)
@@ -68,8 +66,8 @@ def test_adaptive_path_refines_where_the_indicator_says_within_the_limits(tmp_pa
     # the split polygons: children of left-half medium polygons; the rest is the coarse mesh's
     fine = problem.mesh
     unsplit = adapt.level == 0
-    assert np.all(fine.tags[~unsplit] == MEDIUM) and np.all(fine.centroids[~unsplit, 0] < 0.5)
-    assert np.isclose(fine.areas[fine.tags == MEDIUM].sum(), 0.2)
+    assert np.all(fine.tags[~unsplit] == two_blocks.MEDIUM) and np.all(fine.centroids[~unsplit, 0] < 0.5)
+    assert np.isclose(fine.areas[fine.tags == two_blocks.MEDIUM].sum(), 0.2)
     assert (~unsplit).sum() == 4 * 4 * 2                     # 2 quads, each into 4 then 16
 
     problem.comm.barrier()                                                    # rank 0 has written the files
@@ -88,22 +86,23 @@ def test_adaptive_path_refines_where_the_indicator_says_within_the_limits(tmp_pa
         assert {"dofs", "refined_polygons"} <= set(header)
 
 
-def test_adaptive_path_respects_the_unknowns_limit():
-    coarse_dofs = sfvem_unknowns(two_blocks())
-    adapt = sf.Adaptivity(indicator=lambda p: p.mesh.tags == MEDIUM, max_levels=3, max_unknowns=coarse_dofs + 300)
-    problem = pressed_blocks()
+def test_adaptive_path_respects_the_unknowns_limit(two_blocks):
+    coarse_dofs = sfvem_unknowns(two_blocks.mesh())
+    adapt = sf.Adaptivity(indicator=lambda p: p.mesh.tags == two_blocks.MEDIUM, max_levels=3,
+                          max_unknowns=coarse_dofs + 300)
+    problem = pressed_blocks(two_blocks)
     result = problem.solve(steps=3, adapt=adapt)
     assert result.converged
     assert coarse_dofs < problem.disc.num_dofs_global <= coarse_dofs + 300
     assert sum(s["refined_polygons"] for s in result.steps) == 4    # one split of the 4 medium quads, then the limit
 
 
-def test_adaptive_result_matches_the_final_mesh_solved_from_the_start():
+def test_adaptive_result_matches_the_final_mesh_solved_from_the_start(two_blocks):
     """The path ends in the same equilibrium as the final mesh solved from the start."""
     adapt = sf.Adaptivity(sf.Compression(J_below=0.9), max_levels=1)
-    adaptive = pressed_blocks()
-    assert adaptive.solve(steps=3, adapt=adapt).converged and adaptive.mesh.n_polygons > two_blocks().n_polygons
-    direct = pressed_blocks(adaptive.mesh)
+    adaptive = pressed_blocks(two_blocks)
+    assert adaptive.solve(steps=3, adapt=adapt).converged and adaptive.mesh.n_polygons > two_blocks.mesh().n_polygons
+    direct = pressed_blocks(two_blocks, adaptive.mesh)
     assert direct.solve(steps=3).converged
     r, r_direct = (p.reactions()["press"][1] for p in (adaptive, direct))
     assert r == pytest.approx(r_direct, rel=1e-7)
@@ -119,11 +118,11 @@ def test_bad_adaptivity_input(kwargs, message):
         sf.Adaptivity(**kwargs)
 
 
-def test_indicator_of_the_wrong_shape_and_fem_are_refused():
-    problem = pressed_blocks()
+def test_indicator_of_the_wrong_shape_and_fem_are_refused(two_blocks):
+    problem = pressed_blocks(two_blocks)
     with pytest.raises(ValueError, match="indicator returned shape"):
         problem.solve(steps=2, adapt=sf.Adaptivity(indicator=lambda p: np.ones(3, dtype=bool)))
-    fem = sf.ContactProblem(two_blocks(), MATERIALS, method="fem", verbose=False)
+    fem = sf.ContactProblem(two_blocks.mesh(), two_blocks.materials(), method="fem", verbose=False)
     with pytest.raises(ValueError, match="adaptive refinement needs method='vem'"):
         fem.solve(steps=2, adapt=sf.Adaptivity())
 
@@ -158,11 +157,10 @@ def test_study_script_reduced_run(tmp_path):
     assert again[0] == uniform and again[1]["label"] == "h = 0.1, adaptive" and again[1]["dofs"] == adaptive["dofs"]
 
 
-def test_demo_displacement_observer_follows_a_refinement():
+def test_demo_displacement_observer_follows_a_refinement(two_blocks):
     """The demos' point observers find their node again on a refined mesh."""
-    sys.path.insert(0, str(DEMOS))
     import _common as common
-    problem = pressed_blocks()
+    problem = pressed_blocks(two_blocks)
     observe = common.displacement_observer(problem, common.at_point((0.5, 1.2)), 1)
     problem.refine(lambda x: x[1] > 0.9)
     problem.set_displacement(uy=lambda x: 0.1 * x[0] * x[1])

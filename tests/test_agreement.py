@@ -11,7 +11,6 @@
 """
 import json
 import pathlib
-import sys
 import textwrap
 
 import numpy as np
@@ -21,8 +20,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
 from dolfinx_sfvem.run_summary import RunSummary
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
-import compare  # noqa: E402
+import compare
 
 SHEAR, COMPRESSION = 0.2, -0.15
 DATA = pathlib.Path(__file__).resolve().parent / "data"

@@ -4,15 +4,11 @@ two methods, the cheapest run meeting the criteria, and the verdict. No solves, 
 from __future__ import annotations
 
 import math
-import pathlib
-import sys
 
+import accuracy_plan
+import accuracy_report
 import pytest
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "bench"))
-import accuracy_plan  # noqa: E402
-import accuracy_report  # noqa: E402
-from accuracy_reference import Extrapolation, Outcome, cheapest, reference, richardson  # noqa: E402
+from accuracy_reference import Extrapolation, Outcome, cheapest, reference, richardson
 
 
 def test_richardson_recovers_the_limit_and_order_of_a_pure_power():

@@ -18,10 +18,9 @@ import sys
 
 import numpy as np
 import pytest
+import thick_cylinder as tc
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
-sys.path.insert(0, str(DEMOS))
-import thick_cylinder as tc  # noqa: E402
 
 H = 0.2
 #: relative L2 and H1 error, u_r error at the arc vertices (of u_r(a)), error of the work conjugate

@@ -9,13 +9,12 @@ import subprocess
 import sys
 
 import numpy as np
+import hertz
 import pytest
 
 from dolfinx_sfvem.run_summary import read_summary
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
-sys.path.insert(0, str(DEMOS))
-import hertz  # noqa: E402
 
 
 def test_hertz_formulas_against_closed_form():

@@ -8,11 +8,10 @@ import subprocess
 import sys
 
 import numpy as np
+import pneumatic_actuator as pa
 import pytest
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
-sys.path.insert(0, str(DEMOS))
-import pneumatic_actuator as pa  # noqa: E402
 
 
 @pytest.fixture(scope="module")

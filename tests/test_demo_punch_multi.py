@@ -4,7 +4,7 @@ the other material / boundary-condition variant of each is parsed and built in-p
 from __future__ import annotations
 
 import csv
-import importlib.util
+import importlib
 import json
 import pathlib
 import subprocess
@@ -24,16 +24,6 @@ def run_demo(name: str, *args: str, out: pathlib.Path) -> subprocess.CompletedPr
     """Run ``demos/<name>.py`` serially with the given arguments and ``--out out``."""
     cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args, "--out", str(out)]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-
-
-def load_demo(name: str):
-    """Import ``demos/<name>.py`` as a module (it imports ``_common`` from demos/)."""
-    if str(DEMOS) not in sys.path:
-        sys.path.insert(0, str(DEMOS))
-    spec = importlib.util.spec_from_file_location(f"demo_{name}", DEMOS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def check_run(proc: subprocess.CompletedProcess, out: pathlib.Path, n_steps: int, reactions: set[str],
@@ -113,7 +103,7 @@ def test_bad_input(tmp_path, name, args, message):
 
 
 def test_punch_rigid_builds():
-    punch = load_demo("punch")
+    punch = importlib.import_module("punch")
     args = punch.common.parse_args(punch.make_parser(), ["--punch", "rigid", "--h", "0.25", "--quiet",
                                                           "--min-increment", "1e-4"])
     problem, observers = punch.build(args)
@@ -131,7 +121,7 @@ def test_punch_rigid_builds():
 
 
 def test_multi_object_bc1_builds():
-    multi = load_demo("multi_object")
+    multi = importlib.import_module("multi_object")
     args = multi.common.parse_args(multi.make_parser(), ["--bc", "1", "--h", "0.1", "--quiet"])
     problem, observers = multi.build(args)
     assert problem.materials[1].params["K"] == 50.0 and problem.materials[3].params["K"] == 50000.0

@@ -11,10 +11,9 @@ import sys
 import numpy as np
 import pytest
 import scipy.interpolate
+import snap_through as st
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
-sys.path.insert(0, str(DEMOS))
-import snap_through as st  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -5,6 +5,8 @@
   columns, the free block unchanged; the residual rows of the constrained unknowns become
   x_c - g_c, and the lifting makes the symmetric system give the step of the row elimination.
 - Constrained unknowns outside the rank's range are rejected by name.
+
+The materials, the state and the direction are conftest.py's fixtures (test_fem uses them too).
 """
 import numpy as np
 import pytest
@@ -12,14 +14,12 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.discretization import Constraints, Discretization
-from test_fem import SOLID, direction, medium, state
 
 
-def discretization(method: str) -> Discretization:
+def discretization(method: str, materials: dict) -> Discretization:
     """[0, 2] x [0, 1]: region 1 left, region 2 (a medium) right, 4 x 4 quads each."""
     mesh = sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, tag=1),
                           sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, origin=(1.0, 0.0), tag=2))
-    materials = {1: SOLID, 2: medium("rotation", None)}
     if method == "vem":
         return sf.SFVEMDiscretization(mesh, materials, verbose=False)
     return sf.LagrangeDiscretization.from_polygon_mesh(mesh, materials, fem_h=0.35, verbose=False)
@@ -32,9 +32,9 @@ def test_both_methods_fulfil_the_contract():
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("method", ["vem", "fem"])
-def test_registered_constraints_eliminate_rows_and_columns(method):
-    disc = discretization(method)
-    x, d = state(disc), direction(disc)
+def test_registered_constraints_eliminate_rows_and_columns(method, two_region_materials, state_of, direction_of):
+    disc = discretization(method, two_region_materials())
+    x, d = state_of(disc), direction_of(disc)
     A, A_c = disc.create_matrix(), disc.create_matrix()
     disc.jacobian(x, A)                                   # nothing registered: the plain tangent
     disc.set_constraints(disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0), component=1))

@@ -1,14 +1,13 @@
 """The documentation site's generated pages (docs/_ext/sitegen.py) and the README's links."""
 import pathlib
 import re
-import sys
 import types
+
+import sitegen
 
 import dolfinx_sfvem
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "docs" / "_ext"))
-import sitegen  # noqa: E402
 
 
 def test_api_page_documents_every_public_name():

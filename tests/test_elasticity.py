@@ -1,21 +1,16 @@
-"""Linear-elastic SFVEM element: rank, symmetry, rigid motions, exact energy (docs/method.md §3, §7)."""
+"""Linear-elastic SFVEM element: rank, symmetry, rigid motions, exact energy (docs/method.md §3, §7).
+
+The test polygons, the zero-eigenvalue table and the reference maths are conftest.py's fixtures.
+"""
 import numpy as np
 import pytest
-from test_projection import ZERO_EIGENVALUES, POLYGONS, Quadratic, build_one, polygon_moments
 
 from dolfinx_sfvem.elasticity import linear_elastic_stiffness
 
 YOUNG, POISSON = 7.0, 0.3
 
 
-def zero_eigenvalues(K: np.ndarray) -> int:
-    """Eigenvalues below 1e-10 lambda_max (round-off sits near 1e-16, the smallest genuine ones
-    of the test polygons above 1e-5)."""
-    eigenvalues = np.linalg.eigvalsh(K)
-    return int(np.sum(eigenvalues < 1e-10 * eigenvalues[-1]))
-
-
-def rigid_motions(xy: np.ndarray) -> np.ndarray:
+def rigid_motions(xy: np.ndarray, polygon_moments) -> np.ndarray:
     """DOF vectors (3, 2(2N+1)) of u = (1, 0), (0, 1) and the rotation u = (-y, x) (DOF order of K)."""
     midpoints = 0.5 * (xy + np.roll(xy, -1, axis=0))
     moments = polygon_moments(xy)
@@ -26,36 +21,34 @@ def rigid_motions(xy: np.ndarray) -> np.ndarray:
     return np.array([np.concatenate([one, 0 * one]), np.concatenate([0 * one, one]), np.concatenate([-y, x])])
 
 
-@pytest.mark.parametrize("name", POLYGONS)
-def test_rank_symmetry_definiteness(name):
-    K, l = linear_elastic_stiffness(POLYGONS[name], YOUNG, POISSON)
-    assert l == build_one(POLYGONS[name]).l[0]
-    assert K.shape == (2 * (2 * len(POLYGONS[name]) + 1),) * 2
+def test_rank_symmetry_definiteness(polygon, build_one, zero_eigenvalues):
+    K, l = linear_elastic_stiffness(polygon, YOUNG, POISSON)
+    assert l == build_one(polygon).l[0]
+    assert K.shape == (2 * (2 * len(polygon) + 1),) * 2
     np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-13 * np.abs(K).max())
     eigenvalues = np.linalg.eigvalsh(K)
     assert eigenvalues[0] > -1e-13 * eigenvalues[-1]
     assert zero_eigenvalues(K) == 3
 
 
-@pytest.mark.parametrize("name", POLYGONS)
-def test_rigid_motions_in_kernel(name):
-    xy = POLYGONS[name]
+def test_rigid_motions_in_kernel(polygon, polygon_moments):
+    xy = polygon
     K, _ = linear_elastic_stiffness(xy, YOUNG, POISSON)
-    for mode in rigid_motions(xy):
+    for mode in rigid_motions(xy, polygon_moments):
         assert np.linalg.norm(K @ mode) <= 1e-12 * np.linalg.norm(K, 2) * np.linalg.norm(mode)
 
 
-@pytest.mark.parametrize("name", ZERO_EIGENVALUES)
-def test_zero_eigenvalues_match_design_table(name):
-    counts = [zero_eigenvalues(linear_elastic_stiffness(POLYGONS[name], YOUNG, POISSON, l)[0]) for l in range(2, 7)]
-    assert counts == ZERO_EIGENVALUES[name]
+def test_zero_eigenvalues_match_design_table(tabulated_name, polygons, zero_eigenvalue_table, zero_eigenvalues):
+    counts = [zero_eigenvalues(linear_elastic_stiffness(polygons[tabulated_name], YOUNG, POISSON, l)[0])
+              for l in range(2, 7)]
+    assert counts == zero_eigenvalue_table[tabulated_name]
 
 
 @pytest.mark.parametrize("name", ["square", "random convex", "U (not star-shaped)", "square, 2 hanging nodes"])
-def test_energy_of_quadratic_field_is_exact(name):
+def test_energy_of_quadratic_field_is_exact(name, polygons, Quadratic, polygon_moments):
     """u^T K u = int_E eps(u) : C : eps(u) for quadratic u: the projected strain is exact (patch test),
     and the energy density, a quadratic polynomial, is integrated with Green's moments."""
-    xy = POLYGONS[name]
+    xy = polygons[name]
     rng = np.random.default_rng(11)
     ux, uy = Quadratic(rng.standard_normal(6)), Quadratic(rng.standard_normal(6))
     K, _ = linear_elastic_stiffness(xy, YOUNG, POISSON)
@@ -72,16 +65,16 @@ def test_energy_of_quadratic_field_is_exact(name):
     assert u @ K @ u == pytest.approx(energy, rel=1e-11)
 
 
-def test_invariant_under_translation_and_scaling():
+def test_invariant_under_translation_and_scaling(polygons):
     """In 2D K = int B^T C B does not depend on the element size."""
-    xy = POLYGONS["arrow (star-shaped)"]
+    xy = polygons["arrow (star-shaped)"]
     K, _ = linear_elastic_stiffness(xy, YOUNG, POISSON)
     K_moved, _ = linear_elastic_stiffness(0.01 * xy + np.array([2.0, -1.0]), YOUNG, POISSON)
     np.testing.assert_allclose(K_moved, K, rtol=0, atol=1e-10 * np.abs(K).max())
 
 
-def test_bad_input():
-    square = POLYGONS["square"]
+def test_bad_input(polygons):
+    square = polygons["square"]
     with pytest.raises(ValueError, match="not counter-clockwise"):
         linear_elastic_stiffness(square[::-1], YOUNG, POISSON)
     with pytest.raises(ValueError, match="N >= 3"):

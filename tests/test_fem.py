@@ -28,43 +28,15 @@ from dolfinx_sfvem.fem import LagrangeDiscretization
 from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
 from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.remesh import p2_unknowns, triangulate
-from test_convergence import body_force, grad_exact, on_boundary, rates, small_strain, u_exact, LAM, MU, AMPLITUDE
 
 STEP = 1e-6
 RTOL = 1e-6
-SOLID = sf.Hyperelastic(K=2.0, mu=0.7)
 
 
 def two_regions() -> sf.PolygonMesh:
     """[0, 2] x [0, 1]: region 1 left, region 2 right, 2 x 2 quads each."""
     return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, tag=1),
                           sf.meshes.quad_rectangle(1.0, 1.0, 2, 2, origin=(1.0, 0.0), tag=2))
-
-
-def medium(regularization, beta):
-    """A medium whose regularization is as large as its bulk part (test_energy's values)."""
-    return sf.ThirdMedium(mu=0.3, gamma=1.5, alpha_r=1.0 if beta is None else 150.0, K=0.2,
-                          regularization=regularization, beta=beta)
-
-
-def nodal_field(disc, values):
-    """A ghosted vector with ``values(x (n, 2), key (n,)) -> (n, 2)`` at every local node."""
-    x = disc.create_vector()
-    with x.localForm() as xl:
-        xl.array[:] = values(disc.x_nodes, disc.node_key).ravel()
-    return x
-
-
-def state(disc):
-    """A smooth finite deformation plus node-key noise (partition independent)."""
-    def values(X, key):
-        smooth = 0.1 * np.stack([np.sin(2 * X[:, 0] + X[:, 1]), np.cos(X[:, 0] - 2 * X[:, 1])], axis=1)
-        return smooth + 0.01 * np.stack([np.sin(12.9898 * key), np.sin(78.233 * key)], axis=1)
-    return nodal_field(disc, values)
-
-
-def direction(disc):
-    return nodal_field(disc, lambda X, key: np.stack([np.cos(3.7 * key), np.sin(5.3 * key + 1.0)], axis=1))
 
 
 def residual_at(disc, x, d, eps):
@@ -89,10 +61,11 @@ def cells_of(kind: str) -> dict:
                          + [("rotation", None, 40.0, "triangles"), ("huhu_lulu", 5.0, 40.0, "triangles"),
                             ("rotation", None, None, "quads"), ("huhu_lulu", 5.0, None, "quads"),
                             ("rotation", None, 40.0, "quads")])
-def test_tangent_and_residual_match_finite_differences(regularization, beta, jump_penalty, cells):
-    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium(regularization, beta)},
+def test_tangent_and_residual_match_finite_differences(regularization, beta, jump_penalty, cells,
+                                                       two_region_materials, state_of, direction_of):
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(regularization, beta),
                                               jump_penalty=jump_penalty, verbose=False, **cells_of(cells))
-    x, d = state(disc), direction(disc)
+    x, d = state_of(disc), direction_of(disc)
     b, _ = residual_at(disc, x, d, 0.0)
     A = disc.create_matrix()
     disc.jacobian(x, A)
@@ -112,10 +85,10 @@ def test_tangent_and_residual_match_finite_differences(regularization, beta, jum
 
 
 @pytest.mark.mpi
-def test_constrained_rows_and_columns_are_identity():
-    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+def test_constrained_rows_and_columns_are_identity(two_region_materials, state_of, direction_of):
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(),
                                               fem_h=0.35, verbose=False)
-    x, d = state(disc), direction(disc)
+    x, d = state_of(disc), direction_of(disc)
     constrained = np.zeros(disc.n_local_dofs, dtype=bool)
     constrained[disc.locate_dofs(lambda X: np.isclose(X[0], 0.0) | np.isclose(X[1], 1.0), component=1)] = True
     A, A_c = disc.create_matrix(), disc.create_matrix()
@@ -134,16 +107,16 @@ def test_constrained_rows_and_columns_are_identity():
     assert np.allclose(y_c.array[~c], y.array[~c], rtol=1e-13, atol=1e-13 * np.abs(y.array).max())
 
 
-def energy_of(disc, values) -> float:
+def energy_of(disc, values, nodal_field) -> float:
     x = nodal_field(disc, values)
     return disc.residual(x, disc.create_vector()).energy
 
 
 @pytest.mark.mpi
-def test_jump_penalty_acts_only_on_kinks_of_the_gradient():
+def test_jump_penalty_acts_only_on_kinks_of_the_gradient(two_region_materials, nodal_field):
     """The interior-penalty terms vanish for a field with continuous ∇u (a quadratic, which P2
     holds exactly) and add energy for one that kinks across the medium's interior facets."""
-    materials = {1: SOLID, 2: medium("rotation", None)}
+    materials = two_region_materials()
     plain, penalised = (LagrangeDiscretization.from_polygon_mesh(two_regions(), materials, fem_h=0.35,
                                                            jump_penalty=eta, verbose=False) for eta in (None, 40.0))
     assert plain.describe()["jump_penalty"] is None and penalised.describe()["jump_penalty"] == 40.0
@@ -154,15 +127,15 @@ def test_jump_penalty_acts_only_on_kinks_of_the_gradient():
     def kink(X, key):                       # the medium sheared more above y = 0.5 than below
         return 0.05 * np.stack([np.abs(X[:, 1] - 0.5), 0.0 * X[:, 1]], axis=1)
 
-    e_plain, e_penalised = energy_of(plain, quadratic), energy_of(penalised, quadratic)
+    e_plain, e_penalised = energy_of(plain, quadratic, nodal_field), energy_of(penalised, quadratic, nodal_field)
     assert np.isclose(e_penalised, e_plain, rtol=1e-12, atol=0.0)
     # the kink lies along facets only if the triangulation has them at y = 0.5; either way ∇u jumps
-    assert energy_of(penalised, kink) > energy_of(plain, kink) * (1 + 1e-3)
+    assert energy_of(penalised, kink, nodal_field) > energy_of(plain, kink, nodal_field) * (1 + 1e-3)
 
 
-def test_jump_penalty_must_be_positive():
+def test_jump_penalty_must_be_positive(two_region_materials):
     with pytest.raises(ValueError, match="jump_penalty"):
-        LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
+        LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(), fem_h=0.35,
                                            jump_penalty=-1.0, verbose=False)
 
 
@@ -231,11 +204,11 @@ def test_named_points_stay_vertices():
 MATCHED_UNKNOWNS_RTOL = 0.07
 
 
-def test_matched_triangulation_matches_the_sfvem_unknowns():
+def test_matched_triangulation_matches_the_sfvem_unknowns(two_region_materials):
     mesh = sf.meshes.cbox(h_solid=0.1).mesh
     target = sf.VEMSpace(mesh, verbose=False).num_dofs_global
     assert sfvem_unknowns(mesh) == target
-    materials = {1: SOLID, 2: medium("rotation", None)}
+    materials = two_region_materials()
     disc = LagrangeDiscretization.from_polygon_mesh(mesh, materials, verbose=False)
     assert disc.num_dofs_global == p2_unknowns(disc.output_mesh.vertices.reshape(-1, 3))
     assert abs(disc.num_dofs_global - target) <= MATCHED_UNKNOWNS_RTOL * target
@@ -278,34 +251,34 @@ def test_cbox_medium_keeps_the_beams_apart(method, options):
     assert solid_vertices_inside_medium(problem) == 0
 
 
-def solve_errors_fem(h, comm=MPI.COMM_WORLD, quads=False):
-    """(h, L2 error, H1 error) of the FEM solution of test_convergence's problem: P2 on triangles of
-    size h, or Q2 on squares of size h (``quads``)."""
+def solve_errors_fem(h, manufactured, comm=MPI.COMM_WORLD, quads=False):
+    """(h, L2 error, H1 error) of the FEM solution of the manufactured problem (conftest.py): P2 on
+    triangles of size h, or Q2 on squares of size h (``quads``)."""
     square = sf.meshes.quad_rectangle(1.0, 1.0, 1, 1)
-    energy = sf.UserEnergy(small_strain, uses_gradient=False, lam=LAM, mu=MU)
     cells = {"fem_mesh": sf.meshes.quad_rectangle(1.0, 1.0, round(1 / h), round(1 / h))} if quads else {"fem_h": h}
-    problem = sf.ContactProblem(square, {0: energy}, method="fem", comm=comm, verbose=False, **cells)
-    problem.fix(on_boundary)
-    problem.body_force(body_force)
+    problem = sf.ContactProblem(square, {0: manufactured.energy()}, method="fem", comm=comm, verbose=False, **cells)
+    problem.fix(manufactured.on_boundary)
+    problem.body_force(manufactured.body_force)
     assert problem.solve(steps=1).converged
-    return (h, *problem.disc.error_norms(problem.x, u_exact, grad_exact))
+    return (h, *problem.disc.error_norms(problem.x, manufactured.u_exact, manufactured.grad_exact))
 
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("quads", [False, True])
-def test_manufactured_solution_rates(quads):
-    results = [solve_errors_fem(h, quads=quads) for h in (0.2, 0.1, 0.05)]
-    rate_L2, rate_H1 = rates(results)
+def test_manufactured_solution_rates(quads, manufactured):
+    results = [solve_errors_fem(h, manufactured, quads=quads) for h in (0.2, 0.1, 0.05)]
+    rate_L2, rate_H1 = manufactured.rates(results)
     assert 2.7 <= rate_L2 <= 3.5, (rate_L2, results)
     assert 1.8 <= rate_H1 <= 2.4, (rate_H1, results)
-    assert results[-1][1] < 1e-3 * AMPLITUDE and results[-1][2] < 1e-2 * AMPLITUDE
+    a = manufactured.AMPLITUDE
+    assert results[-1][1] < 1e-3 * a and results[-1][2] < 1e-2 * a
 
 
 @pytest.mark.mpi
-def test_q2_node_keys_are_unique_and_name_their_place():
+def test_q2_node_keys_are_unique_and_name_their_place(two_region_materials):
     """Q2 on a quadrilateral fem_mesh: one key per node over all ranks; a vertex node keys its
     output point, an edge node the midpoint of its two points, a centre node its cell."""
-    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)},
+    disc = LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(),
                                               fem_mesh=sf.meshes.glue(
                                                   sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, tag=1),
                                                   sf.meshes.quad_rectangle(1.0, 1.0, 2, 3, origin=(1.0, 0.0), tag=2)),
@@ -336,13 +309,13 @@ def skewed_quads() -> sf.PolygonMesh:
      "region 2 has area"),
     (lambda: sf.meshes.quad_rectangle(2.0, 1.0, 2, 1, tag=1), skewed_quads, "quadrilateral 0 is not a parallelogram"),
 ])
-def test_fem_mesh_is_checked(mesh, fem_mesh, message):
+def test_fem_mesh_is_checked(mesh, fem_mesh, message, two_region_materials):
     with pytest.raises(ValueError, match=message):
-        LagrangeDiscretization.from_polygon_mesh(mesh(), {1: SOLID, 2: medium("rotation", None)}, fem_mesh=fem_mesh(),
+        LagrangeDiscretization.from_polygon_mesh(mesh(), two_region_materials(), fem_mesh=fem_mesh(),
                                            verbose=False)
 
 
-def test_fem_h_and_fem_mesh_exclude_each_other():
+def test_fem_h_and_fem_mesh_exclude_each_other(two_region_materials):
     with pytest.raises(ValueError, match="not both"):
-        LagrangeDiscretization.from_polygon_mesh(two_regions(), {1: SOLID, 2: medium("rotation", None)}, fem_h=0.35,
+        LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(), fem_h=0.35,
                                            fem_mesh=two_regions(), verbose=False)

@@ -5,6 +5,10 @@ module body (also inside ``if``/``try`` blocks and class bodies), not those insi
 ``if TYPE_CHECKING:`` count (for a reader they tie the modules together as much). The ``__init__``
 of a parent package,
 which every submodule import runs first, is not counted.
+
+The test modules do not import each other (nor conftest.py, whose fixtures pytest hands to the
+tests) and do not edit ``sys.path`` (demos/, bench/ and docs/_ext/ are importable through
+pytest's ``pythonpath`` option in pyproject.toml).
 """
 import ast
 import pathlib
@@ -12,6 +16,7 @@ import pathlib
 import dolfinx_sfvem
 
 PACKAGE = pathlib.Path(dolfinx_sfvem.__file__).parent
+TESTS = pathlib.Path(__file__).resolve().parent
 
 
 def _module_level_imports(body: list[ast.stmt]):
@@ -97,3 +102,42 @@ def test_no_import_circle_in_the_package():
     assert "dolfinx_sfvem.polygon_mesh" in graph["dolfinx_sfvem.refine"]
     circle = find_circle(graph)
     assert circle is None, "import circle: " + " -> ".join(circle)
+
+
+def forbidden_in_tests(source: str, test_modules: set[str]) -> list[str]:
+    """What a test module must not do, anywhere in its ``source``: import one of ``test_modules``,
+    conftest or the tests directory, or touch ``sys.path``; one "line N: ..." per finding."""
+    problems = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            modules = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            modules = [node.module or ""]
+            if node.module == "sys" and any(alias.name == "path" for alias in node.names):
+                problems.append(f"line {node.lineno}: sys.path")
+        else:
+            modules = []
+        problems += [f"line {node.lineno}: imports {m}" for m in modules
+                     if m.split(".")[0] in test_modules | {"conftest", "tests"}]
+        if (isinstance(node, ast.Attribute) and node.attr == "path" and isinstance(node.value, ast.Name)
+                and node.value.id == "sys"):
+            problems.append(f"line {node.lineno}: sys.path")
+    return sorted(problems, key=lambda problem: int(problem.split(":")[0][5:]))
+
+
+def test_the_test_module_checker_finds_imports_and_path_edits():
+    bad = ("import numpy, test_b\nfrom test_c.d import x\nimport sys\nsys.path.insert(0, 'demos')\n"
+           "def f():\n    from conftest import y\n    from sys import path\n")
+    assert forbidden_in_tests(bad, {"test_b", "test_c"}) == [
+        "line 1: imports test_b", "line 2: imports test_c.d", "line 4: sys.path", "line 6: imports conftest",
+        "line 7: sys.path"]
+    assert forbidden_in_tests("import sys\nimport testing_tools\nfrom dolfinx_sfvem import meshes\n"
+                                "run = [sys.executable]\n", {"test_b"}) == []
+
+
+def test_test_modules_neither_import_each_other_nor_edit_sys_path():
+    modules = sorted(TESTS.glob("test_*.py")) + [TESTS / "conftest.py"]
+    assert len(modules) > 30 and (TESTS / "test_imports.py") in modules
+    names = {path.stem for path in modules}
+    problems = {path.name: found for path in modules if (found := forbidden_in_tests(path.read_text(), names))}
+    assert not problems, problems

@@ -2,144 +2,23 @@
 
 The reference values come from outside the code under test: closed-form integrals, Green's
 formulas for polygon moments, quadratic fields evaluated directly, LAPACK SVDs, and the
-zero-eigenvalue table of docs/method.md §3.
+zero-eigenvalue table of docs/method.md §3. The test polygons, the table and the reference maths
+(Green's moments, quadratic fields, the patch test) are fixtures of conftest.py: test_elasticity
+and test_local_refinement use them too.
 """
 import numpy as np
 import pytest
-from matplotlib.path import Path
-from scipy.spatial import ConvexHull
 
-from dolfinx_sfvem.monomials import (evaluate_monomials, exponents, gauss_legendre, n_monomials,
-                                     polygon_monomial_integrals)
+from dolfinx_sfvem.monomials import exponents, gauss_legendre, n_monomials, polygon_monomial_integrals
 from dolfinx_sfvem.projection import (RANK_TOL, build_projections, cholesky, null_space_dimensions,
                                       orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system)
 
 
-# --------------------------------------------------------------------------- test polygons
-def regular_polygon(N: int) -> np.ndarray:
-    angle = 2 * np.pi * np.arange(N) / N
-    return np.column_stack([np.cos(angle), np.sin(angle)])
-
-
-def square_with_hanging_nodes(y_hanging) -> np.ndarray:
-    """Unit square with extra vertices on its right side at the heights y_hanging."""
-    right = [[1.0, y] for y in y_hanging]
-    return np.array([[0.0, 0.0], [1.0, 0.0], *right, [1.0, 1.0], [0.0, 1.0]])
-
-
-def _random_convex() -> np.ndarray:
-    points = np.random.default_rng(3).random((12, 2))
-    return points[ConvexHull(points).vertices]  # counter-clockwise in 2D
-
-
-#: name -> counter-clockwise vertices
-POLYGONS = {
-    "triangle": np.array([[0.0, 0.0], [1.0, 0.0], [0.2, 0.9]]),
-    "square": square_with_hanging_nodes([]),
-    "hexagon": regular_polygon(6),
-    "heptagon": regular_polygon(7),
-    "octagon": regular_polygon(8),
-    "random convex": _random_convex(),
-    "arrow (star-shaped)": np.array([[0, 0.25], [2, 0.25], [2, 0], [3, 0.5], [2, 1], [2, 0.75], [0, 0.75]]),
-    "star (star-shaped)": np.array([[np.cos(t), np.sin(t)] for t in np.linspace(0, 2 * np.pi, 10, endpoint=False)])
-    * np.where(np.arange(10) % 2 == 0, 1.0, 0.4)[:, None],
-    "U (not star-shaped)": np.array([[0, 0], [3, 0], [3, 2], [2, 2], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float),
-    "comb (not star-shaped)": np.array([[0, 0], [5, 0], [5, 2], [4, 2], [4, 1], [3, 1], [3, 2], [2, 2], [2, 1],
-                                        [1, 1], [1, 2], [0, 2]], dtype=float),
-    "square, 1 hanging node": square_with_hanging_nodes([0.5]),
-    "square, 2 hanging nodes": square_with_hanging_nodes([1 / 3, 2 / 3]),
-    "square, 3 hanging nodes": square_with_hanging_nodes([0.25, 0.5, 0.75]),
-    "square, 2 uneven hanging nodes": square_with_hanging_nodes([0.2, 0.7]),
-    "square, 1 hanging node per side": np.array([[0, 0], [0.5, 0], [1, 0], [1, 0.5], [1, 1], [0.5, 1], [0, 1],
-                                                 [0, 0.5]]),
-}
-
-#: docs/method.md §3: zero eigenvalues of the linear-elastic element, l = 2..6 (3 is right)
-ZERO_EIGENVALUES = {
-    "square": [5, 3, 3, 3, 3],
-    "hexagon": [9, 3, 3, 3, 3],
-    "heptagon": [13, 3, 3, 3, 3],
-    "octagon": [17, 7, 3, 3, 3],
-    "square, 1 hanging node": [6, 3, 3, 3, 3],
-    "square, 2 hanging nodes": [10, 5, 3, 3, 3],
-    "square, 3 hanging nodes": [14, 9, 7, 5, 3],
-    "square, 1 hanging node per side": [18, 10, 5, 3, 3],
-}
-
-
-def design_l(name: str) -> int:
-    """The automatic l that docs/method.md's table implies: the smallest l >= 3 with 3 zero eigenvalues."""
-    return next(l for l, zeros in zip(range(2, 7), ZERO_EIGENVALUES[name]) if l >= 3 and zeros == 3)
-
-
-def as_csr(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    points = np.vstack(polygons)
-    offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
-    return points, offsets, np.arange(len(points))
-
-
-def build_one(xy: np.ndarray, **kwargs):
-    return build_projections(*as_csr([xy]), **kwargs)
-
-
-# --------------------------------------------------------------------------- reference maths
-def polygon_moments(xy: np.ndarray) -> np.ndarray:
-    """[int 1, int x, int y, int x^2, int xy, int y^2] over the polygon (Green's formulas)."""
-    x0, y0 = xy[:, 0], xy[:, 1]
-    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
-    c = x0 * y1 - x1 * y0
-    return np.array([c.sum() / 2, ((x0 + x1) * c).sum() / 6, ((y0 + y1) * c).sum() / 6,
-                     ((x0 ** 2 + x0 * x1 + x1 ** 2) * c).sum() / 12,
-                     ((x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c).sum() / 24,
-                     ((y0 ** 2 + y0 * y1 + y1 ** 2) * c).sum() / 12])
-
-
-class Quadratic:
-    """v(x) = c . [1, X, Y, X^2, XY, Y^2], (X, Y) = (x - origin) / scale, with its exact derivatives.
-
-    A local origin and scale keep the reference values accurate for small polygons far away.
-    """
-
-    def __init__(self, c, origin=(0.0, 0.0), scale=1.0):
-        self.c, self.origin, self.scale = np.asarray(c), np.asarray(origin), scale
-
-    def __call__(self, p):
-        X, Y = np.moveaxis((p - self.origin) / self.scale, -1, 0)
-        return self.c @ np.array([np.ones_like(X), X, Y, X * X, X * Y, Y * Y])
-
-    def gradient(self, p):
-        X, Y = np.moveaxis((p - self.origin) / self.scale, -1, 0)
-        c = self.c
-        return np.stack([c[1] + 2 * c[3] * X + c[4] * Y, c[2] + c[4] * X + 2 * c[5] * Y], axis=-1) / self.scale
-
-    def hessian(self):
-        c = self.c
-        return np.array([[2 * c[3], c[4]], [c[4], 2 * c[5]]]) / self.scale ** 2
-
-    def dofs(self, xy):
-        """[v(x_i), v(m_i), mean of v] (the SFVEM DOFs)."""
-        midpoints = 0.5 * (xy + np.roll(xy, -1, axis=0))
-        moments = polygon_moments((xy - self.origin) / self.scale)
-        return np.concatenate([self(xy), self(midpoints), [self.c @ moments / moments[0]]])
-
-
-def interior_points(xy: np.ndarray, n: int, rng) -> np.ndarray:
-    """n random points strictly inside the polygon (rejection sampling)."""
-    path = Path(xy)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    points = np.empty((0, 2))
-    while len(points) < n:
-        candidates = lo + (hi - lo) * rng.random((4 * n, 2))
-        points = np.vstack([points, candidates[path.contains_points(candidates)]])
-    return points[:n]
-
-
-def monomials_at(points, x_E, h_E, k):
-    """(values, d/dx, d/dy) of the monomials of degree <= k at each point, each (n_points, n_monomials)."""
-    out = np.zeros((3, len(points), n_monomials(k)))
-    for i, p in enumerate(points):
-        evaluate_monomials(p, x_E, h_E, k, out[0, i], out[1, i], out[2, i])
-    return out
+# --------------------------------------------------------------------------- helpers
+def design_l(zero_eigenvalues: list[int]) -> int:
+    """The automatic l that a row of docs/method.md's table (zero eigenvalues for l = 2..6) implies:
+    the smallest l >= 3 with 3 zero eigenvalues."""
+    return next(l for l, zeros in zip(range(2, 7), zero_eigenvalues) if l >= 3 and zeros == 3)
 
 
 # --------------------------------------------------------------------------- monomials
@@ -148,7 +27,7 @@ def test_exponents_graded_order():
     assert exponents(3).tolist() == [[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2], [3, 0], [2, 1], [1, 2], [0, 3]]
 
 
-def test_monomial_values_and_physical_derivatives():
+def test_monomial_values_and_physical_derivatives(monomials_at):
     x_E, h_E, k = np.array([0.3, -0.2]), 0.7, 5
     p = np.array([0.9, 0.4])
     m, dm_dx, dm_dy = monomials_at(p[None], x_E, h_E, k)[:, 0]
@@ -185,15 +64,15 @@ def test_monomial_integrals_rectangle_closed_form():
 
 
 @pytest.mark.parametrize("name", ["random convex", "U (not star-shaped)", "star (star-shaped)"])
-def test_monomial_integrals_match_green_moments(name):
-    xy = POLYGONS[name]
+def test_monomial_integrals_match_green_moments(name, polygons, polygon_moments):
+    xy = polygons[name]
     x_E, h_E = np.zeros(2), 1.0  # then m = [1, x, y, x^2, xy, y^2]
     np.testing.assert_allclose(polygon_monomial_integrals(xy, x_E, h_E, 2), polygon_moments(xy), rtol=1e-13,
                                atol=1e-14)
 
 
-def test_polygon_geometry():
-    xy = POLYGONS["U (not star-shaped)"]
+def test_polygon_geometry(polygons, polygon_moments):
+    xy = polygons["U (not star-shaped)"]
     area, x_E, h_E = polygon_geometry(xy)
     moments = polygon_moments(xy)
     assert area == pytest.approx(3 * 2 - 1 * 1) and area == pytest.approx(moments[0])
@@ -203,41 +82,14 @@ def test_polygon_geometry():
 
 
 # --------------------------------------------------------------------------- patch tests
-def check_patch(xy: np.ndarray, P, rtol: float, seed: int) -> None:
-    """Pi^nabla_2 reproduces quadratics; Pi^0_l grad (Eq. 43) and its derivatives (Eq. 45) their gradients
-    and Hessians, at interior points, for random quadratic fields."""
-    rng = np.random.default_rng(seed)
-    x_E, h_E, l = P.centroid[0], P.diameter[0], int(P.l[0])
-    points = interior_points(xy, 20, rng)
-    m2 = monomials_at(points, x_E, h_E, 2)[0]
-    m, dm_dx, dm_dy = monomials_at(points, x_E, h_E, l)
-    for _ in range(4):
-        v = Quadratic(rng.standard_normal(6), origin=xy[0], scale=h_E)
-        v_dofs = v.dofs(xy)
-        value = m2 @ (P.Pi_nabla_of(0) @ v_dofs)
-        np.testing.assert_allclose(value, v(points), rtol=0, atol=rtol * np.abs(v(points)).max())
-        coefficients = P.Pi_m_of(0) @ v_dofs  # (2, nl): d/dx and d/dy of v
-        gradient = np.stack([m @ coefficients[0], m @ coefficients[1]], axis=-1)
-        exact = v.gradient(points)
-        np.testing.assert_allclose(gradient, exact, rtol=0, atol=rtol * np.abs(exact).max())
-        # Eq. 45: H_cd = d/dx_d of component c, not symmetrised
-        hessian = np.array([[dm_dx @ coefficients[0], dm_dy @ coefficients[0]],
-                            [dm_dx @ coefficients[1], dm_dy @ coefficients[1]]])  # (2, 2, n_points)
-        exact = v.hessian()[:, :, None] * np.ones(len(points))
-        np.testing.assert_allclose(hessian, exact, rtol=0, atol=rtol * np.abs(exact).max())
+def test_patch_automatic_l(polygon, build_one, check_patch):
+    check_patch(polygon, build_one(polygon), rtol=1e-10, seed=1)
 
 
-@pytest.mark.parametrize("name", POLYGONS)
-def test_patch_automatic_l(name):
-    xy = POLYGONS[name]
-    check_patch(xy, build_one(xy), rtol=1e-10, seed=1)
-
-
-@pytest.mark.parametrize("name", POLYGONS)
-def test_patch_larger_user_l(name):
+def test_patch_larger_user_l(polygon, build_one, check_patch):
     """Two degrees above the automatic choice. Scaled monomials of degree 7-8 cost about a digit
     (measured up to 3e-10 at l = 8), hence 1e-9 here."""
-    xy = POLYGONS[name]
+    xy = polygon
     l = int(build_one(xy).l[0]) + 2
     P = build_one(xy, l=l)
     assert P.l[0] == l
@@ -245,17 +97,16 @@ def test_patch_larger_user_l(name):
 
 
 @pytest.mark.parametrize("scale, offset", [(1e-3, (0.1, 0.05)), (0.1, (5.0, -3.0)), (1e4, (0.0, 0.0))])
-def test_patch_translated_scaled_polygon(scale, offset):
+def test_patch_translated_scaled_polygon(scale, offset, polygons, build_one, check_patch):
     """Only relative positions matter. (An offset of d element sizes costs about log10(d) digits
     of the input geometry, amplified by the projection, hence moderate offsets here.)"""
-    xy = scale * POLYGONS["star (star-shaped)"] + np.array(offset)
+    xy = scale * polygons["star (star-shaped)"] + np.array(offset)
     check_patch(xy, build_one(xy), rtol=1e-9, seed=3)
 
 
 # --------------------------------------------------------------------------- choice of l
-@pytest.mark.parametrize("name", ZERO_EIGENVALUES)
-def test_automatic_l_matches_design_table(name):
-    assert build_one(POLYGONS[name]).l[0] == design_l(name)
+def test_automatic_l_matches_design_table(tabulated_name, polygons, zero_eigenvalue_table, build_one):
+    assert build_one(polygons[tabulated_name]).l[0] == design_l(zero_eigenvalue_table[tabulated_name])
 
 
 def svd_null_space_dimensions(xy: np.ndarray, l: int) -> tuple[int, int]:
@@ -274,9 +125,8 @@ def svd_null_space_dimensions(xy: np.ndarray, l: int) -> tuple[int, int]:
     return nullity(np.vstack([Q[0], Q[1]])), nullity(strain)
 
 
-@pytest.mark.parametrize("name", POLYGONS)
-def test_null_space_dimensions_agree_with_svd(name):
-    xy = POLYGONS[name]
+def test_null_space_dimensions_agree_with_svd(polygon):
+    xy = polygon
     area, x_E, h_E = polygon_geometry(xy)
     Pi_nabla = pi_nabla_2(xy, x_E, h_E, area)
     for l in range(2, 8):
@@ -286,9 +136,9 @@ def test_null_space_dimensions_agree_with_svd(name):
         assert null_space_dimensions(orthonormal_moments(L, R), RANK_TOL) == svd_null_space_dimensions(xy, l)
 
 
-def test_strain_criterion_is_stricter_than_gradient_criterion():
+def test_strain_criterion_is_stricter_than_gradient_criterion(polygons, build_one):
     """The U-shaped octagon at l = 3: only constants in the scalar null space, yet spurious strain-free modes."""
-    U = POLYGONS["U (not star-shaped)"]
+    U = polygons["U (not star-shaped)"]
     gradient_nullity, strain_nullity = svd_null_space_dimensions(U, 3)
     assert gradient_nullity == 1 and strain_nullity > 3
     assert build_one(U).l[0] > 3
@@ -296,8 +146,8 @@ def test_strain_criterion_is_stricter_than_gradient_criterion():
         build_one(U, l=3)
 
 
-def test_rank_deficient_user_l_names_polygon():
-    points, offsets, vertices = as_csr([POLYGONS["square"], POLYGONS["square, 3 hanging nodes"]])
+def test_rank_deficient_user_l_names_polygon(polygons, as_csr):
+    points, offsets, vertices = as_csr([polygons["square"], polygons["square, 3 hanging nodes"]])
     with pytest.raises(ValueError, match=r"polygon 1: l=3 is rank-deficient .*smallest sufficient l is 6"):
         build_projections(points, offsets, vertices, l=3)
     with pytest.raises(ValueError, match=r"polygon 1: l=5 is rank-deficient"):
@@ -307,8 +157,8 @@ def test_rank_deficient_user_l_names_polygon():
         build_projections(points, offsets, vertices, l=2)
 
 
-def test_l_max_guard():
-    points, offsets, vertices = as_csr([POLYGONS["square"], POLYGONS["square, 3 hanging nodes"]])
+def test_l_max_guard(polygons, as_csr):
+    points, offsets, vertices = as_csr([polygons["square"], polygons["square, 3 hanging nodes"]])
     with pytest.raises(ValueError, match=r"polygon 1: no l <= l_max=5 is sufficient"):
         build_projections(points, offsets, vertices, l_max=5)
     with pytest.raises(ValueError, match=r"l=11 .*outside \[1, l_max=10\]"):
@@ -317,8 +167,8 @@ def test_l_max_guard():
         build_projections(points, offsets, vertices, l_min=4, l_max=3)
 
 
-def test_bad_polygons_are_named():
-    square = POLYGONS["square"]
+def test_bad_polygons_are_named(polygons, as_csr, build_one):
+    square = polygons["square"]
     with pytest.raises(ValueError, match=r"polygon 1: vertices are not counter-clockwise"):
         build_projections(*as_csr([square, square[::-1]]))
     with pytest.raises(ValueError, match=r"polygon 1: 2 vertices"):
@@ -331,7 +181,7 @@ def test_bad_polygons_are_named():
 
 
 # --------------------------------------------------------------------------- bulk build
-def random_polygons(n: int, rng) -> list[np.ndarray]:
+def random_polygons(n: int, rng, square_with_hanging_nodes) -> list[np.ndarray]:
     """Perturbed regular polygons (3-9 vertices), star-shaped ones and hanging-node squares,
     randomly rotated, scaled and moved."""
     shapes = []
@@ -355,9 +205,9 @@ def random_polygons(n: int, rng) -> list[np.ndarray]:
     return shapes
 
 
-def test_bulk_build_equals_per_polygon_build():
+def test_bulk_build_equals_per_polygon_build(as_csr, build_one, polygon_moments, square_with_hanging_nodes):
     rng = np.random.default_rng(7)
-    shapes = random_polygons(300, rng)
+    shapes = random_polygons(300, rng, square_with_hanging_nodes)
     points, offsets, vertices = as_csr(shapes)
     # shuffle the point array so that polygons reach their points through `vertices`
     order = rng.permutation(len(points))
@@ -384,11 +234,11 @@ def test_bulk_build_equals_per_polygon_build():
         np.testing.assert_array_equal(part.Pi_nabla_of(j), bulk.Pi_nabla_of(e))
 
 
-def test_histogram_and_summary():
-    names = list(ZERO_EIGENVALUES)
-    P = build_projections(*as_csr([POLYGONS[name] for name in names]))
+def test_histogram_and_summary(polygons, zero_eigenvalue_table, as_csr):
+    names = list(zero_eigenvalue_table)
+    P = build_projections(*as_csr([polygons[name] for name in names]))
     expected = {}
-    for name in names:
-        expected[design_l(name)] = expected.get(design_l(name), 0) + 1
+    for l in (design_l(zero_eigenvalue_table[name]) for name in names):
+        expected[l] = expected.get(l, 0) + 1
     assert P.histogram() == dict(sorted(expected.items()))
     assert f"{len(names)} polygons" in P.summary() and "l=6: 1 " in P.summary()

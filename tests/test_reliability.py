@@ -1,6 +1,6 @@
 """Reliability: bad input is rejected by name, failed and interrupted runs lose nothing.
 
-The random malformed-mesh fuzz test lives in ``test_mesh_fuzz.py``.
+The random malformed-mesh fuzz test lives in ``test_polygon_mesh_fuzz.py``.
 """
 import json
 import os

@@ -1,40 +1,20 @@
 """The results page (demos/results.py) from synthetic summary.json files: no solves.
 
 Checks the tables (Table 2/3 beside the paper, SFVEM vs FEM, rank check), that missing runs are
-listed as "not run", and the Table 2 acceptance logic on constructed data.
+listed as "not run", and the Table 2 acceptance logic on constructed data. The summary.json
+contents come from conftest.py's ``summary_content`` and ``write_summary``.
 """
 from __future__ import annotations
 
 import fnmatch
-import json
-import pathlib
-import sys
 
 import pytest
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
-import box_self_contact as box  # noqa: E402
-from dolfinx_sfvem import paper  # noqa: E402
-import results_plan  # noqa: E402
-import results_report  # noqa: E402
-import results_runner  # noqa: E402
-
-
-def summary(*, converged: bool = True, loads=(0.5, 1.0), force: float = 2.0, extra: dict | None = None,
-            method: str = "vem", ranks: int = 2, uy: float = -1.0, condition: str = "load") -> dict:
-    """A summary.json content with one converged step per load factor (the force grows linearly)."""
-    steps = [{"step": k + 1, "load": load, "newton_iterations": 3, "converged": True,
-              "reaction": {condition: [0.0, -force * load]}, "extra": dict(extra or {})}
-             for k, load in enumerate(loads)]
-    return {"method": method, "dofs": 1234, "ranks": ranks, "wall_time_s": 12.5, "converged": converged,
-            "message": "" if converged else f"step {len(loads) + 1}: load step failed",
-            "polygons": 100, "projection_order_histogram": {"3": 90, "4": 10},
-            "parameters": {"method": method, "uy": uy}, "steps": steps}
-
-
-def write(directory: pathlib.Path, content: dict) -> None:
-    directory.mkdir(parents=True, exist_ok=True)
-    (directory / "summary.json").write_text(json.dumps(content))
+import box_self_contact as box
+import results_plan
+import results_report
+import results_runner
+from dolfinx_sfvem import paper
 
 
 def paper_gaps(scale: float = 1.0) -> dict[tuple[float, float, int], float]:
@@ -88,19 +68,22 @@ def test_acceptance_is_incomplete_with_missing_runs():
 
 # --------------------------------------------------------------------------- the page
 @pytest.fixture
-def page(tmp_path):
+def page(tmp_path, summary_content, write_summary):
     """results.md written from: all Table 2 runs (1.1 x the paper), C-box mesh 1 both methods and
     its 1-rank check, one FEM run short of the full load; everything else missing."""
     root, docs = tmp_path / "results", tmp_path / "docs"
     for (a, g), values in paper.TABLE2.items():
         for m in (1, 2, 3):
-            write(box.run_dir(root / results_plan.TABLE2_DIR, "huhu_lulu", box.BETA, a, g, m),
-                  summary(extra={"gap": 1.1 * values[m - 1]}))
-    write(root / "cbox-mesh1-vem", summary(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5))
-    write(root / "cbox-mesh1-fem", {**summary(force=2.1, extra={"tip_ux": -0.1}, uy=-0.5, method="fem"),
-                                    "cell_type": "quadrilateral"})
-    write(root / "cbox-mesh1-vem-np1", summary(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5, ranks=1))
-    write(root / "cbox-mesh2-fem", summary(converged=False, loads=(0.5,), method="fem", uy=-0.5))
+            write_summary(box.run_dir(root / results_plan.TABLE2_DIR, "huhu_lulu", box.BETA, a, g, m),
+                          summary_content(extra={"gap": 1.1 * values[m - 1]}))
+    write_summary(root / "cbox-mesh1-vem", summary_content(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5))
+    write_summary(root / "cbox-mesh1-fem", {**summary_content(force=2.1, extra={"tip_ux": -0.1}, uy=-0.5,
+                                                              method="fem"),
+                                            "cell_type": "quadrilateral"})
+    write_summary(root / "cbox-mesh1-vem-np1",
+                  summary_content(force=2.0, extra={"tip_ux": -0.1}, uy=-0.5, ranks=1))
+    write_summary(root / "cbox-mesh2-fem",
+                  summary_content(converged=False, loads=(0.5,), method="fem", uy=-0.5))
     runs = results_plan.plan(quick=False, ranks=2)
     checks = results_report.write_report(runs, root, docs, quick=False)
     return (docs / "results.md").read_text(), checks, docs
@@ -157,18 +140,18 @@ def test_plan_and_selection():
 
 
 # --------------------------------------------------------------------------- restart decisions
-def test_restart_decisions(tmp_path):
+def test_restart_decisions(tmp_path, summary_content, write_summary):
     """Skip a converged run with the same parameters, resume an interrupted one, keep a failed
     one unless asked, move a run of other parameters aside."""
     run = next(r for r in results_plan.plan(quick=False, ranks=2) if r.name == "cbox-mesh1-vem")
     params = {"method": "vem", "uy": -0.5, "steps": 50, "mesh": 1, "h": 0.05, "gamma": 1e-5}
-    done = {**summary(uy=-0.5), "parameters": params}
-    write(tmp_path / run.out, done)
+    done = {**summary_content(uy=-0.5), "parameters": params}
+    write_summary(tmp_path / run.out, done)
     assert results_runner.state(run, tmp_path) == "done"
     assert results_runner.prepare(run, tmp_path, retry_failed=False)[:2] == (False, False)
     assert results_runner.remaining(run, tmp_path, retry_failed=False) == 0
 
-    write(tmp_path / run.out, {**done, "converged": False, "message": "running"})
+    write_summary(tmp_path / run.out, {**done, "converged": False, "message": "running"})
     assert results_runner.state(run, tmp_path) == "other"                    # no checkpoint: start again
     (tmp_path / run.out / "checkpoint.npz").write_bytes(b"")
     assert results_runner.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
@@ -182,11 +165,11 @@ def test_restart_decisions(tmp_path):
     (tmp_path / run.out / "displacement.h5").write_bytes(results_runner.HDF5_SIGNATURE + bytes(56))
     assert results_runner.prepare(run, tmp_path, retry_failed=False) == (True, True, "resuming")
 
-    write(tmp_path / run.out, {**done, "converged": False, "message": "step 3: failed"})
+    write_summary(tmp_path / run.out, {**done, "converged": False, "message": "step 3: failed"})
     assert results_runner.prepare(run, tmp_path, retry_failed=False)[0] is False
     assert results_runner.prepare(run, tmp_path, retry_failed=True) == (True, False, "running")
 
-    write(tmp_path / run.out, {**done, "parameters": {**params, "steps": 10}})
+    write_summary(tmp_path / run.out, {**done, "parameters": {**params, "steps": 10}})
     go, resume, note = results_runner.prepare(run, tmp_path, retry_failed=False)
     assert (go, resume) == (True, False) and "moved" in note
     assert not (tmp_path / run.out).exists()
@@ -202,12 +185,14 @@ def test_stops_are_sorted_by_their_analysed_cause():
     assert list(explained.values()) == [mesh3] and "box mesh 3" in next(iter(explained))
 
 
-def test_interrupted_runs_are_not_counted_as_stops(tmp_path):
-    write(tmp_path / "punch-soft-vem-np1", {**summary(loads=(0.5,)), "converged": False, "message": "running"})
-    write(tmp_path / "cbox-mesh1-vem", summary())
+def test_interrupted_runs_are_not_counted_as_stops(tmp_path, summary_content, write_summary):
+    write_summary(tmp_path / "punch-soft-vem-np1",
+                  {**summary_content(loads=(0.5,)), "converged": False, "message": "running"})
+    write_summary(tmp_path / "cbox-mesh1-vem", summary_content())
     assert results_report._short_runs(tmp_path) == ["Interrupted, `make results` continues them: punch-soft-vem-np1.",
                                              "Every run that finished reached the full load."]
-    write(tmp_path / "punch-rigid-vem", {**summary(loads=(0.5,)), "converged": False, "message": "step 2: failed"})
+    write_summary(tmp_path / "punch-rigid-vem",
+                  {**summary_content(loads=(0.5,)), "converged": False, "message": "step 2: failed"})
     items = results_report._short_runs(tmp_path)
     assert items[1].startswith("Runs short of the full load: punch-rigid-vem (") and items[-1].startswith("Not analysed: ")
 

@@ -7,13 +7,12 @@ import json
 import pytest
 
 from dolfinx_sfvem.run_summary import RUNNING, STOPPED_BY_SIGNAL, RunSummary, Step, read_summary
-from test_solver import BLOCK_HEIGHT, block_problem
 
 
-def test_read_summary_reads_what_solve_writes(tmp_path):
+def test_read_summary_reads_what_solve_writes(tmp_path, block):
     """Every entry solve writes has its typed place: the run's fields, the discretization's facts,
     and per step the fields of Step (a new entry in summary.json fails here until it is typed)."""
-    result = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2, out=tmp_path)
+    result = block.compressed(uy=-0.1 * block.HEIGHT).solve(2, out=tmp_path)
     content = json.loads((tmp_path / "summary.json").read_text())
     summary = read_summary(tmp_path)
     assert read_summary(tmp_path / "summary.json") == summary

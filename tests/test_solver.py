@@ -8,6 +8,8 @@
 - The default absolute tolerance scales with the moduli (the same iterations and solution for
   moduli and loads scaled by 1e-6 .. 1e6); a given ``snes_atol`` is used as is.
 - A boundary condition that selects no degree of freedom is an error naming it.
+
+The block most tests load is conftest.py's ``block`` (test_run_summary uses it too).
 """
 import csv
 import functools
@@ -23,7 +25,6 @@ from dolfinx_sfvem import meshes, snes as solver
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
-BLOCK_HEIGHT = 0.2
 #: pure Newton (no line search), stopped just above round-off so that the last residuals of
 #: every step show the asymptotic rate and the final one sits at the round-off level
 PURE_NEWTON = {"snes_linesearch_type": "basic", "snes_rtol": 1e-14, "snes_atol": 1e-13}
@@ -48,15 +49,6 @@ def cbox_problem(uy: float) -> sf.ContactProblem:
                                 comm=COMM, verbose=False)
     problem.fix(lambda x: np.isclose(x[0], 0.0), name="fixed")
     problem.prescribe(at_point(bench.points["load"]), uy=uy, name="load")
-    return problem
-
-
-def block_problem(uy: float) -> sf.ContactProblem:
-    """A 1 x 0.2 solid block of 5 x 2 quads, clamped below, its top face moved by (0, uy)."""
-    mesh = meshes.quad_rectangle(1.0, BLOCK_HEIGHT, 5, 2, tag=SOLID)
-    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)}, comm=COMM, verbose=False)
-    problem.fix(lambda x: np.isclose(x[1], 0.0), name="bottom")
-    problem.prescribe(lambda x: np.isclose(x[1], BLOCK_HEIGHT), ux=0.0, uy=uy, name="top")
     return problem
 
 
@@ -113,12 +105,12 @@ def test_newton_converges_quadratically_in_contact():
     assert min(orders.values()) > 1.6, orders
 
 
-def test_each_state_is_assembled_once(monkeypatch):
+def test_each_state_is_assembled_once(monkeypatch, block):
     """A converged state's residual is the one SNES evaluated last: the state diagnostics and the
     reactions reuse it, so a load path costs one residual per Newton iteration plus one per load
     step (SNES's first at the new load) and one for the initial-state check, and the reactions
     equal the internal force assembled afresh."""
-    problem = block_problem(uy=-0.02)
+    problem = block.compressed(uy=-0.02)
     calls = []
     assemble = type(problem.disc).residual
     monkeypatch.setattr(type(problem.disc), "residual", lambda self, x, b: calls.append(1) or assemble(self, x, b))
@@ -204,11 +196,11 @@ def read_outputs(out) -> tuple[dict, list[dict]]:
     return summary, rows
 
 
-def exhausted_run(out, raise_on_failure: bool):
+def exhausted_run(block, out, raise_on_failure: bool):
     """Squeeze the block to 3 times its height in 6 steps with one halving allowed: at load
     factor 1/3 its top face would reach the clamped bottom (J > 0 impossible), so the run
     must stop there or before. Returns (steps, load reached, message)."""
-    problem = block_problem(uy=-3 * BLOCK_HEIGHT)
+    problem = block.compressed(uy=-3 * block.HEIGHT)
     if not raise_on_failure:
         result = problem.solve(6, out=out, min_increment=0.5 / 6)
         assert not result.converged
@@ -220,12 +212,12 @@ def exhausted_run(out, raise_on_failure: bool):
 
 
 @pytest.mark.parametrize("raise_on_failure", [False, True])
-def test_exhausted_cut_back_keeps_converged_steps(tmp_path, raise_on_failure):
+def test_exhausted_cut_back_keeps_converged_steps(tmp_path, raise_on_failure, block):
     """When the smallest increment fails, the message names the load factor of the failed step
     and the last converged one; every converged step is kept in the result and written to
     summary.json and load_path.csv; with raise_on_failure=True SolveFailed is raised as well."""
     out = tmp_path / "run"
-    steps, load, message = exhausted_run(out, raise_on_failure)
+    steps, load, message = exhausted_run(block, out, raise_on_failure)
     done = converged(steps)
     assert done, "the first step (50 % compression) should converge"
     assert load == done[-1]["load"] < 1 / 3 + 1e-12
@@ -251,17 +243,17 @@ def user_option():
     options.delValue("snes_max_it")
 
 
-def test_python_options_do_not_leak(user_option):
+def test_python_options_do_not_leak(user_option, block):
     """snes_max_it = 1 given to one solve makes it fail after one iteration per try (two tries per
     attempt: the default line search and its fallback); the next
     solve (another problem) again uses the user's global options and converges; the PETSc
     options database is the same before and after both solves."""
     before = user_option.getAll()
-    limited = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2, petsc_options={"snes_max_it": 1}, min_increment=0.5)
+    limited = block.compressed(uy=-0.1 * block.HEIGHT).solve(2, petsc_options={"snes_max_it": 1}, min_increment=0.5)
     assert not limited.converged
     assert all(s["newton_iterations"] <= 2 for s in limited.attempts)
     assert user_option.getAll() == before
-    normal = block_problem(uy=-0.1 * BLOCK_HEIGHT).solve(2)
+    normal = block.compressed(uy=-0.1 * block.HEIGHT).solve(2)
     assert normal.converged, normal.message
     assert max(s["newton_iterations"] for s in normal.attempts) > 1
     assert user_option.getAll() == before
@@ -272,23 +264,22 @@ def test_python_options_do_not_leak(user_option):
 WEIGHT = 0.05
 
 
-def cantilever_problem(scale: float) -> sf.ContactProblem:
-    """The block of :func:`block_problem` clamped at its left end and bent by a body force (tip
+def cantilever_problem(block, scale: float) -> sf.ContactProblem:
+    """The ``block`` clamped at its left end and bent by a body force (tip
     deflection about 0.9), moduli and body force multiplied by ``scale``: the deformation does
     not depend on it."""
-    mesh = meshes.quad_rectangle(1.0, BLOCK_HEIGHT, 5, 2, tag=SOLID)
-    problem = sf.ContactProblem(mesh, {SOLID: sf.Hyperelastic(K=5 / 3 * scale, mu=5 / 14 * scale)}, comm=COMM,
+    problem = sf.ContactProblem(block.mesh(), {SOLID: sf.Hyperelastic(K=5 / 3 * scale, mu=5 / 14 * scale)}, comm=COMM,
                                 verbose=False)
     problem.fix(lambda x: np.isclose(x[0], 0.0), name="clamped")
     problem.body_force(lambda x: np.stack([np.zeros(x.shape[1]), np.full(x.shape[1], -WEIGHT * scale)]))
     return problem
 
 
-def test_default_absolute_tolerance_scales_with_the_moduli():
+def test_default_absolute_tolerance_scales_with_the_moduli(block):
     """Moduli and body force multiplied by 1e-6, 1 and 1e6: with the default absolute tolerance
     (proportional to eps ||K|| ||x||) every step takes the same Newton iterations, ends at the
     same deflection and at a final residual proportional to the scale."""
-    results = {scale: cantilever_problem(scale).solve(2) for scale in (1e-6, 1.0, 1e6)}
+    results = {scale: cantilever_problem(block, scale).solve(2) for scale in (1e-6, 1.0, 1e6)}
     assert all(r.converged for r in results.values()), {s: r.message for s, r in results.items()}
     iterations = {s: [step["newton_iterations"] for step in r.attempts] for s, r in results.items()}
     assert iterations[1e-6] == iterations[1.0] == iterations[1e6], iterations
@@ -316,12 +307,12 @@ def solve_with_fixed_atol(request):
     return solve
 
 
-def test_given_snes_atol_is_used_as_is(solve_with_fixed_atol):
+def test_given_snes_atol_is_used_as_is(solve_with_fixed_atol, block):
     """With moduli and load scaled by 1e-6 the forces are of order 1e-7: a fixed ``snes_atol`` of
     1e-10, from Python or the command line, is used as given and stops Newton early, with a
     deflection off by more than 1e-5 (relative) from the converged one."""
-    reference = cantilever_problem(1e-6).solve(2)
-    early = solve_with_fixed_atol(cantilever_problem(1e-6))
+    reference = cantilever_problem(block, 1e-6).solve(2)
+    early = solve_with_fixed_atol(cantilever_problem(block, 1e-6))
     assert reference.converged and early.converged, (reference.message, early.message)
     assert sum(s["newton_iterations"] for s in early.attempts) < sum(s["newton_iterations"] for s in reference.attempts)
     assert all(1e-12 < s["residual_norms"][-1] <= 1e-10 for s in early.steps), early.steps
@@ -337,11 +328,11 @@ def nowhere(x):
 @pytest.mark.parametrize("add", [
     lambda p: p.fix(nowhere, name="outside"),
     lambda p: p.prescribe(tags=[99], uy=-0.01, name="outside"),
-    lambda p: p.fix(lambda x: x[1] > 2 * BLOCK_HEIGHT, tags=[SOLID], components=(0,), name="outside"),
+    lambda p: p.fix(lambda x: x[1] > 1.0, tags=[SOLID], components=(0,), name="outside"),       # above the block
 ], ids=["marker", "missing-tag", "marker-and-tag"])
-def test_empty_boundary_condition_is_named(add):
+def test_empty_boundary_condition_is_named(add, block):
     """A boundary condition that selects no degree of freedom is a ValueError naming it."""
-    problem = block_problem(uy=-0.01)
+    problem = block.compressed(uy=-0.01)
     add(problem)
     with pytest.raises(ValueError, match="'outside'"):
         problem.solve(1)

@@ -2,20 +2,20 @@
 
 References come from outside the code under test: areas and moments by Green's formulas, quadratic
 fields evaluated directly, eigenvalues by LAPACK, the location of points by a geometric search, and
-the same problem solved on the refined mesh from the start.
+the same problem solved on the refined mesh from the start. The patch test, the reference moments
+and the two blocks across a medium are conftest.py's fixtures.
 """
 import numpy as np
 import pytest
 from mpi4py import MPI
-from test_elasticity import YOUNG, POISSON, zero_eigenvalues
-from test_projection import build_one, check_patch, polygon_moments
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.projection import build_projections
 from dolfinx_sfvem.state_transfer import transfer_state
 
-SOLID, MEDIUM, OTHER = 1, 2, 3
+SOLID, MEDIUM = sf.meshes.SOLID, sf.meshes.MEDIUM
 K, MU = 5 / 3, 5 / 14
+YOUNG, POISSON = 7.0, 0.3          # of the linear-elastic element whose zero-energy modes are counted
 
 U_SHAPE = [[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]]        # no visibility-region point: ear triangles
 STAR = [[0, 0], [2, 0], [2, 2], [1.2, 0.9], [0, 2]]                                  # centroid outside the visibility region
@@ -34,13 +34,6 @@ def single(xy) -> sf.PolygonMesh:
     return sf.PolygonMesh(xy, [np.arange(len(xy))])
 
 
-def two_blocks() -> sf.PolygonMesh:
-    """Block [0,1]x[0,1] (SOLID), medium layer [0,1]x[1,1.2], block [0,1]x[1.2,2.2] (OTHER)."""
-    return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, tag=SOLID),
-                          sf.meshes.quad_rectangle(1.0, 0.2, 4, 1, origin=(0.0, 1.0), tag=MEDIUM),
-                          sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, origin=(0.0, 1.2), tag=OTHER))
-
-
 # --------------------------------------------------------------------------- quadratic fields
 COEFFICIENTS = np.array([[0.2, 0.3, -0.2, 0.5, -0.7, 0.2],
                          [-0.4, 0.1, 0.25, -0.3, 0.1, 0.9]])       # u_i = c_i . [1, x, y, x^2, xy, y^2]
@@ -52,7 +45,7 @@ def u_quadratic(x: np.ndarray) -> np.ndarray:
     return COEFFICIENTS @ np.array([np.ones_like(X), X, Y, X * X, X * Y, Y * Y])
 
 
-def exact_state(mesh: sf.PolygonMesh) -> np.ndarray:
+def exact_state(mesh: sf.PolygonMesh, polygon_moments) -> np.ndarray:
     """The quadratic's SFVEM DOFs by node key (point, then sorted unordered edge, then polygon)."""
     n = mesh.n_points
     nxt = np.arange(1, mesh.vertices.size + 1)
@@ -66,25 +59,30 @@ def exact_state(mesh: sf.PolygonMesh) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- the refined polygons
-def check_refined(r) -> None:
-    """Areas add up, every child lies in its parent, tags follow the parents, and every new polygon
-    passes the patch test and has exactly the 3 rigid motions as zero-energy modes."""
-    coarse, fine = r.coarse, r.mesh
-    np.testing.assert_allclose(np.bincount(r.parent, fine.areas, coarse.n_polygons), coarse.areas, rtol=1e-12)
-    inside = fine.nodes[fine.triangles[fine.triangle_offsets[:-1]]].mean(axis=1)     # a point in each child
-    np.testing.assert_array_equal(coarse.locate(inside), r.parent)
-    np.testing.assert_array_equal(fine.tags, coarse.tags[r.parent])
-    np.testing.assert_array_equal(fine.points[:coarse.n_points], coarse.points)
-    for i in range(fine.n_polygons):
-        xy = fine.polygon_coordinates(i)
-        check_patch(xy, build_one(xy), rtol=1e-9, seed=i)
-        K_E, _ = sf.linear_elastic_stiffness(xy, YOUNG, POISSON)
-        assert zero_eigenvalues(K_E) == 3, f"polygon {i}"
+@pytest.fixture
+def check_refined(build_one, check_patch, zero_eigenvalues):
+    """``check_refined(r)`` of a refinement ``r``: areas add up, every child lies in its parent, tags
+    follow the parents, and every new polygon passes the patch test and has exactly the 3 rigid
+    motions as zero-energy modes."""
+    def check(r) -> None:
+        coarse, fine = r.coarse, r.mesh
+        np.testing.assert_allclose(np.bincount(r.parent, fine.areas, coarse.n_polygons), coarse.areas, rtol=1e-12)
+        inside = fine.nodes[fine.triangles[fine.triangle_offsets[:-1]]].mean(axis=1)     # a point in each child
+        np.testing.assert_array_equal(coarse.locate(inside), r.parent)
+        np.testing.assert_array_equal(fine.tags, coarse.tags[r.parent])
+        np.testing.assert_array_equal(fine.points[:coarse.n_points], coarse.points)
+        for i in range(fine.n_polygons):
+            xy = fine.polygon_coordinates(i)
+            check_patch(xy, build_one(xy), rtol=1e-9, seed=i)
+            K_E, _ = sf.linear_elastic_stiffness(xy, YOUNG, POISSON)
+            assert zero_eigenvalues(K_E) == 3, f"polygon {i}"
+
+    return check
 
 
 @pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("levels", [1, 2])
-def test_every_polygon_kind(kind, levels):
+def test_every_polygon_kind(kind, levels, check_refined):
     """One polygon becomes one quadrilateral per convex vertex and two triangles per reflex one (a
     polygon without a visibility-region point: three quadrilaterals per ear triangle); at the next level
     quadrilaterals make four, triangles three."""
@@ -95,7 +93,7 @@ def test_every_polygon_kind(kind, levels):
     check_refined(r)
 
 
-def test_neighbours_gain_hanging_nodes_and_refinement_repeats():
+def test_neighbours_gain_hanging_nodes_and_refinement_repeats(check_refined):
     """Refining one quad of a 3 x 1 strip puts one hanging node on each neighbour's shared side;
     refining its children next to the neighbour again puts two more there."""
     coarse = sf.meshes.quad_rectangle(3.0, 1.0, 3, 1)
@@ -152,7 +150,7 @@ def test_regions_and_generators():
     assert np.count_nonzero(near.mesh.tags == SOLID) == np.count_nonzero(box.tags == SOLID)   # only gain nodes
 
 
-def test_polygon_mesh_from_scratch_with_a_non_star_polygon_and_a_neighbour():
+def test_polygon_mesh_from_scratch_with_a_non_star_polygon_and_a_neighbour(check_refined):
     mesh = sf.PolygonMesh(np.array(U_SHAPE + [[4, 0], [4, 3]], dtype=float), [range(8), [1, 8, 9, 2]], [5, 7])
     r = mesh.refine([0], levels=2)
     check_refined(r)
@@ -188,26 +186,25 @@ def test_bad_input(where, levels, tags, message):
     (single(STAR), [0], 1),
     (sf.meshes.quad_rectangle(3.0, 1.0, 3, 1), [1], 3),
 ])
-def test_transfer_reproduces_quadratics(mesh, where, levels):
+def test_transfer_reproduces_quadratics(mesh, where, levels, polygon_moments):
     """Vertex values, midpoint values and polygon means of a quadratic field on the refined mesh,
     from those on the coarse mesh."""
     r = mesh.refine(where, levels)
-    expected = exact_state(r.mesh)
-    np.testing.assert_allclose(transfer_state(r, exact_state(mesh)), expected, rtol=0,
+    expected = exact_state(r.mesh, polygon_moments)
+    np.testing.assert_allclose(transfer_state(r, exact_state(mesh, polygon_moments)), expected, rtol=0,
                                atol=1e-12 * np.abs(expected).max())
 
 
 @pytest.mark.mpi
-def test_problem_refine_transfers_a_quadratic_state():
+def test_problem_refine_transfers_a_quadratic_state(two_blocks):
     """Through the distributed discretization: a quadratic set on the coarse problem, refined,
     equals the quadratic set on the refined mesh directly (every node, on any number of ranks)."""
     comm = MPI.COMM_WORLD
-    materials = {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-5, alpha_r=1.0),
-                 OTHER: sf.Hyperelastic(K=K, mu=MU)}
+    materials = two_blocks.materials()
     ux, uy = (lambda x: u_quadratic(x)[0]), (lambda x: u_quadratic(x)[1])
-    problem = sf.ContactProblem(two_blocks(), materials, verbose=False)
+    problem = sf.ContactProblem(two_blocks.mesh(), materials, verbose=False)
     problem.set_displacement(ux, uy)
-    r = problem.refine(lambda x: x[1] > 0.7, tags=[SOLID, MEDIUM], levels=2)
+    r = problem.refine(lambda x: x[1] > 0.7, tags=[two_blocks.SOLID, two_blocks.MEDIUM], levels=2)
     assert problem.mesh is r.mesh
     direct = sf.ContactProblem(r.mesh, materials, verbose=False)
     direct.set_displacement(ux, uy)
@@ -280,15 +277,13 @@ def test_linear_patch_test_on_a_refined_mesh():
     np.testing.assert_allclose(problem.displacement_at(points), points @ F.T, rtol=0, atol=1e-9)
 
 
-def test_refined_mesh_passes_the_contact_checks():
+def test_refined_mesh_passes_the_contact_checks(two_blocks):
     """Two blocks across a medium layer, the layer and the blocks' facing rows refined: the gap
     seen through the hanging nodes is the true one, overlaps are flagged, and pressing the upper
     block down converges with the solids apart."""
     facing = lambda x: (x[1] > 0.7) & (x[1] < 1.5)                              # noqa: E731
-    mesh = two_blocks().refine(facing).mesh
-    materials = {SOLID: sf.Hyperelastic(K=K, mu=MU), MEDIUM: sf.ThirdMedium(mu=MU, gamma=1e-5, alpha_r=1.0),
-                 OTHER: sf.Hyperelastic(K=K, mu=MU)}
-    problem = sf.ContactProblem(mesh, materials, verbose=False)
+    mesh = two_blocks.mesh().refine(facing).mesh
+    problem = sf.ContactProblem(mesh, two_blocks.materials(), verbose=False)
     for drop, gap in [(0.1, 0.1), (0.3, -0.1)]:
         problem.set_displacement(uy=lambda x: np.where(x[1] > 1.1, -drop, 0.0))
         g = problem.contact_gap()

@@ -1,18 +1,17 @@
 """Fuzzing PolygonMesh: random corruptions of valid meshes are either accepted as valid meshes or
-rejected with ValueError, never another exception; random polygons triangulate validly."""
+rejected with ValueError, never another exception; random polygons triangulate validly. The mesh
+builders and checks are conftest.py's fixtures."""
 import numpy as np
 import pytest
 from matplotlib.path import Path
 
 from dolfinx_sfvem.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.polygon import sub_triangulate
-from test_mesh import COMB, SPIRAL, STAR_L, assert_deepest_diagonal, assert_valid_mesh, assert_valid_triangulation, \
-    glue, hanging_mesh, square_grid
 
 N_CASES = 200
 
 
-def base_meshes():
+def base_meshes(square_grid, hanging_mesh, glue, nonconvex):
     """Valid meshes (points, polygons) to corrupt."""
     points, squares = square_grid(4, 3)
     triangles = [t for a, b, c, d in squares for t in ([a, b, c], [a, c, d])]
@@ -21,8 +20,8 @@ def base_meshes():
         (points, triangles),
         hanging_mesh(2, listed=False)[:2],
         hanging_mesh(3, listed=True)[:2],
-        glue((COMB, [list(range(12))]), (SPIRAL + [0.0, -4.0], [list(range(10))]),
-             (STAR_L * 0.5 + [4.0, 3.0], [list(range(6))])),
+        glue((nonconvex.COMB, [list(range(12))]), (nonconvex.SPIRAL + [0.0, -4.0], [list(range(10))]),
+             (nonconvex.STAR_L * 0.5 + [4.0, 3.0], [list(range(6))])),
     ]
 
 
@@ -157,9 +156,9 @@ def assert_no_overlap(mesh):
         np.testing.assert_array_equal(inside, owner == i)
 
 
-def test_corrupted_meshes_are_rejected_or_valid():
+def test_corrupted_meshes_are_rejected_or_valid(square_grid, assert_valid_mesh, hanging_mesh, glue, nonconvex):
     rng = np.random.default_rng(20240531)
-    bases = base_meshes()
+    bases = base_meshes(square_grid, hanging_mesh, glue, nonconvex)
     outcome = {"accepted": 0, "rejected": 0}
     for case in range(N_CASES):
         points, polygons = bases[case % len(bases)]
@@ -219,7 +218,7 @@ def random_affine(rng, xy):
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_random_star_polygons_get_a_valid_fan(seed):
+def test_random_star_polygons_get_a_valid_fan(seed, assert_valid_triangulation):
     rng = np.random.default_rng(seed)
     for _ in range(40):
         xy = random_affine(rng, random_star_polygon(rng))
@@ -229,7 +228,7 @@ def test_random_star_polygons_get_a_valid_fan(seed):
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_random_combs_triangulate_validly(seed):
+def test_random_combs_triangulate_validly(seed, assert_valid_triangulation, assert_deepest_diagonal):
     rng = np.random.default_rng(100 + seed)
     n_ears = 0
     for _ in range(20):

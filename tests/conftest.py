@@ -1,0 +1,487 @@
+"""Fixtures shared by several test modules: pytest hands them to any test that names them as an
+argument, so test modules never import each other. Most are helpers (a function or class)
+returned as they are; ``polygon`` and ``tabulated_name`` run a test once per test polygon.
+
+- Test polygons and reference maths for the projections (test_projection, test_elasticity,
+  test_local_refinement): ``polygons``, ``polygon``, ``zero_eigenvalue_table`` (docs/method.md §3),
+  ``tabulated_name``, ``as_csr``, ``build_one``, ``polygon_moments`` (Green's formulas),
+  ``Quadratic``, ``monomials_at``, ``check_patch``, ``zero_eigenvalues``, ``square_with_hanging_nodes``.
+- ``two_blocks``: two blocks across a medium layer (test_local_refinement, test_adaptive).
+- ``manufactured``: the manufactured small-strain solution (test_convergence, test_fem).
+- ``two_region_materials``, ``nodal_field``, ``state_of``, ``direction_of``: a solid and a medium
+  region and states of a discretization (test_fem, test_discretization).
+- ``block``: a block on one rank (test_solver, test_run_summary).
+- ``summary_content``, ``write_summary``: summary.json files (test_results, test_refinement_page).
+- PolygonMesh builders and checks (test_polygon_mesh, test_polygon_mesh_fuzz): ``square_grid``,
+  ``hanging_mesh``, ``glue``, ``shoelace``, ``assert_valid_mesh``, ``assert_valid_triangulation``,
+  ``assert_deepest_diagonal``, ``nonconvex`` (polygons to triangulate).
+"""
+import json
+import pathlib
+
+import numpy as np
+import pytest
+import ufl
+from matplotlib.path import Path
+from mpi4py import MPI
+from scipy.spatial import ConvexHull
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem.monomials import evaluate_monomials, n_monomials
+from dolfinx_sfvem.projection import build_projections
+
+
+def shared(helper, name: str | None = None):
+    """A session fixture named ``name`` (default: the helper's own name) that returns ``helper``
+    (a function or class): how test modules share a helper without importing each other."""
+    return pytest.fixture(scope="session", name=name or helper.__name__)(lambda: helper)
+
+
+# =========================================================================== test polygons
+def regular_polygon(N: int) -> np.ndarray:
+    angle = 2 * np.pi * np.arange(N) / N
+    return np.column_stack([np.cos(angle), np.sin(angle)])
+
+
+def square_with_hanging_nodes(y_hanging) -> np.ndarray:
+    """Unit square with extra vertices on its right side at the heights y_hanging."""
+    right = [[1.0, y] for y in y_hanging]
+    return np.array([[0.0, 0.0], [1.0, 0.0], *right, [1.0, 1.0], [0.0, 1.0]])
+
+
+def _random_convex() -> np.ndarray:
+    points = np.random.default_rng(3).random((12, 2))
+    return points[ConvexHull(points).vertices]  # counter-clockwise in 2D
+
+
+#: name -> counter-clockwise vertices
+POLYGONS = {
+    "triangle": np.array([[0.0, 0.0], [1.0, 0.0], [0.2, 0.9]]),
+    "square": square_with_hanging_nodes([]),
+    "hexagon": regular_polygon(6),
+    "heptagon": regular_polygon(7),
+    "octagon": regular_polygon(8),
+    "random convex": _random_convex(),
+    "arrow (star-shaped)": np.array([[0, 0.25], [2, 0.25], [2, 0], [3, 0.5], [2, 1], [2, 0.75], [0, 0.75]]),
+    "star (star-shaped)": np.array([[np.cos(t), np.sin(t)] for t in np.linspace(0, 2 * np.pi, 10, endpoint=False)])
+    * np.where(np.arange(10) % 2 == 0, 1.0, 0.4)[:, None],
+    "U (not star-shaped)": np.array([[0, 0], [3, 0], [3, 2], [2, 2], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float),
+    "comb (not star-shaped)": np.array([[0, 0], [5, 0], [5, 2], [4, 2], [4, 1], [3, 1], [3, 2], [2, 2], [2, 1],
+                                        [1, 1], [1, 2], [0, 2]], dtype=float),
+    "square, 1 hanging node": square_with_hanging_nodes([0.5]),
+    "square, 2 hanging nodes": square_with_hanging_nodes([1 / 3, 2 / 3]),
+    "square, 3 hanging nodes": square_with_hanging_nodes([0.25, 0.5, 0.75]),
+    "square, 2 uneven hanging nodes": square_with_hanging_nodes([0.2, 0.7]),
+    "square, 1 hanging node per side": np.array([[0, 0], [0.5, 0], [1, 0], [1, 0.5], [1, 1], [0.5, 1], [0, 1],
+                                                 [0, 0.5]]),
+}
+
+#: docs/method.md §3: zero eigenvalues of the linear-elastic element, l = 2..6 (3 is right)
+ZERO_EIGENVALUES = {
+    "square": [5, 3, 3, 3, 3],
+    "hexagon": [9, 3, 3, 3, 3],
+    "heptagon": [13, 3, 3, 3, 3],
+    "octagon": [17, 7, 3, 3, 3],
+    "square, 1 hanging node": [6, 3, 3, 3, 3],
+    "square, 2 hanging nodes": [10, 5, 3, 3, 3],
+    "square, 3 hanging nodes": [14, 9, 7, 5, 3],
+    "square, 1 hanging node per side": [18, 10, 5, 3, 3],
+}
+
+
+def as_csr(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    points = np.vstack(polygons)
+    offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])])
+    return points, offsets, np.arange(len(points))
+
+
+def build_one(xy: np.ndarray, **kwargs):
+    return build_projections(*as_csr([xy]), **kwargs)
+
+
+# --------------------------------------------------------------------------- reference maths
+def polygon_moments(xy: np.ndarray) -> np.ndarray:
+    """[int 1, int x, int y, int x^2, int xy, int y^2] over the polygon (Green's formulas)."""
+    x0, y0 = xy[:, 0], xy[:, 1]
+    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    c = x0 * y1 - x1 * y0
+    return np.array([c.sum() / 2, ((x0 + x1) * c).sum() / 6, ((y0 + y1) * c).sum() / 6,
+                     ((x0 ** 2 + x0 * x1 + x1 ** 2) * c).sum() / 12,
+                     ((x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c).sum() / 24,
+                     ((y0 ** 2 + y0 * y1 + y1 ** 2) * c).sum() / 12])
+
+
+class Quadratic:
+    """v(x) = c . [1, X, Y, X^2, XY, Y^2], (X, Y) = (x - origin) / scale, with its exact derivatives.
+
+    A local origin and scale keep the reference values accurate for small polygons far away.
+    """
+
+    def __init__(self, c, origin=(0.0, 0.0), scale=1.0):
+        self.c, self.origin, self.scale = np.asarray(c), np.asarray(origin), scale
+
+    def __call__(self, p):
+        X, Y = np.moveaxis((p - self.origin) / self.scale, -1, 0)
+        return self.c @ np.array([np.ones_like(X), X, Y, X * X, X * Y, Y * Y])
+
+    def gradient(self, p):
+        X, Y = np.moveaxis((p - self.origin) / self.scale, -1, 0)
+        c = self.c
+        return np.stack([c[1] + 2 * c[3] * X + c[4] * Y, c[2] + c[4] * X + 2 * c[5] * Y], axis=-1) / self.scale
+
+    def hessian(self):
+        c = self.c
+        return np.array([[2 * c[3], c[4]], [c[4], 2 * c[5]]]) / self.scale ** 2
+
+    def dofs(self, xy):
+        """[v(x_i), v(m_i), mean of v] (the SFVEM DOFs)."""
+        midpoints = 0.5 * (xy + np.roll(xy, -1, axis=0))
+        moments = polygon_moments((xy - self.origin) / self.scale)
+        return np.concatenate([self(xy), self(midpoints), [self.c @ moments / moments[0]]])
+
+
+def interior_points(xy: np.ndarray, n: int, rng) -> np.ndarray:
+    """n random points strictly inside the polygon (rejection sampling)."""
+    path = Path(xy)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    points = np.empty((0, 2))
+    while len(points) < n:
+        candidates = lo + (hi - lo) * rng.random((4 * n, 2))
+        points = np.vstack([points, candidates[path.contains_points(candidates)]])
+    return points[:n]
+
+
+def monomials_at(points, x_E, h_E, k):
+    """(values, d/dx, d/dy) of the monomials of degree <= k at each point, each (n_points, n_monomials)."""
+    out = np.zeros((3, len(points), n_monomials(k)))
+    for i, p in enumerate(points):
+        evaluate_monomials(p, x_E, h_E, k, out[0, i], out[1, i], out[2, i])
+    return out
+
+
+def check_patch(xy: np.ndarray, P, rtol: float, seed: int) -> None:
+    """Pi^nabla_2 reproduces quadratics; Pi^0_l grad (Eq. 43) and its derivatives (Eq. 45) their gradients
+    and Hessians, at interior points, for random quadratic fields."""
+    rng = np.random.default_rng(seed)
+    x_E, h_E, l = P.centroid[0], P.diameter[0], int(P.l[0])
+    points = interior_points(xy, 20, rng)
+    m2 = monomials_at(points, x_E, h_E, 2)[0]
+    m, dm_dx, dm_dy = monomials_at(points, x_E, h_E, l)
+    for _ in range(4):
+        v = Quadratic(rng.standard_normal(6), origin=xy[0], scale=h_E)
+        v_dofs = v.dofs(xy)
+        value = m2 @ (P.Pi_nabla_of(0) @ v_dofs)
+        np.testing.assert_allclose(value, v(points), rtol=0, atol=rtol * np.abs(v(points)).max())
+        coefficients = P.Pi_m_of(0) @ v_dofs  # (2, nl): d/dx and d/dy of v
+        gradient = np.stack([m @ coefficients[0], m @ coefficients[1]], axis=-1)
+        exact = v.gradient(points)
+        np.testing.assert_allclose(gradient, exact, rtol=0, atol=rtol * np.abs(exact).max())
+        # Eq. 45: H_cd = d/dx_d of component c, not symmetrised
+        hessian = np.array([[dm_dx @ coefficients[0], dm_dy @ coefficients[0]],
+                            [dm_dx @ coefficients[1], dm_dy @ coefficients[1]]])  # (2, 2, n_points)
+        exact = v.hessian()[:, :, None] * np.ones(len(points))
+        np.testing.assert_allclose(hessian, exact, rtol=0, atol=rtol * np.abs(exact).max())
+
+
+def zero_eigenvalues(K: np.ndarray) -> int:
+    """Eigenvalues below 1e-10 lambda_max (round-off sits near 1e-16, the smallest genuine ones
+    of the test polygons above 1e-5)."""
+    eigenvalues = np.linalg.eigvalsh(K)
+    return int(np.sum(eigenvalues < 1e-10 * eigenvalues[-1]))
+
+
+@pytest.fixture(scope="session")
+def polygons() -> dict[str, np.ndarray]:
+    """The test polygons by name: counter-clockwise vertices (n, 2)."""
+    return POLYGONS
+
+
+@pytest.fixture(params=list(POLYGONS))
+def polygon(request) -> np.ndarray:
+    """Each test polygon in turn (the test id is its name): counter-clockwise vertices (n, 2)."""
+    return POLYGONS[request.param]
+
+
+@pytest.fixture(scope="session")
+def zero_eigenvalue_table() -> dict[str, list[int]]:
+    """docs/method.md §3: polygon name -> zero eigenvalues of the linear-elastic element for l = 2..6."""
+    return ZERO_EIGENVALUES
+
+
+@pytest.fixture(params=list(ZERO_EIGENVALUES))
+def tabulated_name(request) -> str:
+    """Each polygon of the zero-eigenvalue table in turn (the test id is its name)."""
+    return request.param
+
+
+# =========================================================================== two blocks across a medium
+class TwoBlocks:
+    """Block [0, 1] x [0, 1] (tag SOLID), a medium layer [0, 1] x [1, 1.2] (MEDIUM) and block
+    [0, 1] x [1.2, 2.2] (OTHER), of 4 x 4, 4 x 1 and 4 x 4 quadrilaterals; both blocks of the
+    compressible neo-Hookean solid K = 5/3, mu = 5/14, the layer a third medium
+    gamma = 1e-5, alpha_r = 1."""
+
+    SOLID, MEDIUM, OTHER = 1, 2, 3
+    K, MU = 5 / 3, 5 / 14
+
+    @classmethod
+    def mesh(cls) -> sf.PolygonMesh:
+        return sf.meshes.glue(sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, tag=cls.SOLID),
+                              sf.meshes.quad_rectangle(1.0, 0.2, 4, 1, origin=(0.0, 1.0), tag=cls.MEDIUM),
+                              sf.meshes.quad_rectangle(1.0, 1.0, 4, 4, origin=(0.0, 1.2), tag=cls.OTHER))
+
+    @classmethod
+    def materials(cls) -> dict:
+        return {cls.SOLID: sf.Hyperelastic(K=cls.K, mu=cls.MU),
+                cls.MEDIUM: sf.ThirdMedium(mu=cls.MU, gamma=1e-5, alpha_r=1.0),
+                cls.OTHER: sf.Hyperelastic(K=cls.K, mu=cls.MU)}
+
+
+two_blocks_fixture = shared(TwoBlocks, "two_blocks")
+
+
+# =========================================================================== manufactured solution
+class ManufacturedSolution:
+    """Small-strain plane elasticity ψ = μ ε:ε + λ/2 (tr ε)², ε = sym(F − I) (E = 1, ν = 0.3), on
+    the unit square with u = 0 on the boundary and the body force f = −div σ(u) of
+
+        u_1 = u_2 = a sin(πx) sin(πy),   a = 0.01 (small strain: J stays near 1)
+
+    (test_convergence for the SFVEM, test_fem for P2 and Q2)."""
+
+    E, NU = 1.0, 0.3
+    LAM, MU = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
+    AMPLITUDE = 0.01
+
+    @staticmethod
+    def small_strain(F, G, lam, mu):
+        eps = ufl.sym(F - ufl.Identity(2))
+        return mu * ufl.inner(eps, eps) + lam / 2 * ufl.tr(eps) ** 2
+
+    @classmethod
+    def energy(cls) -> sf.UserEnergy:
+        """ψ as a user energy."""
+        return sf.UserEnergy(cls.small_strain, uses_gradient=False, lam=cls.LAM, mu=cls.MU)
+
+    @classmethod
+    def u_exact(cls, x):
+        s = cls.AMPLITUDE * np.sin(np.pi * x[0]) * np.sin(np.pi * x[1])
+        return np.array([s, s])
+
+    @classmethod
+    def grad_exact(cls, x):
+        gx = cls.AMPLITUDE * np.pi * np.cos(np.pi * x[0]) * np.sin(np.pi * x[1])
+        gy = cls.AMPLITUDE * np.pi * np.sin(np.pi * x[0]) * np.cos(np.pi * x[1])
+        return np.array([[gx, gy], [gx, gy]])
+
+    @classmethod
+    def body_force(cls, x):
+        """f = −(μ Δu + (λ + μ) ∇ div u) for the field above."""
+        s = cls.AMPLITUDE * np.sin(np.pi * x[0]) * np.sin(np.pi * x[1])
+        c = cls.AMPLITUDE * np.cos(np.pi * (x[0] + x[1]))
+        f = 2 * np.pi ** 2 * cls.MU * s - (cls.LAM + cls.MU) * np.pi ** 2 * c
+        return np.array([f, f])
+
+    @staticmethod
+    def on_boundary(x):
+        return np.isclose(x[0], 0) | np.isclose(x[0], 1) | np.isclose(x[1], 0) | np.isclose(x[1], 1)
+
+    @staticmethod
+    def rates(results) -> tuple[float, float]:
+        """Convergence rates (L2, H1) fitted to rows (h, L2 error, H1 error)."""
+        h, e0, e1 = np.array(results).T
+        return np.polyfit(np.log(h), np.log(e0), 1)[0], np.polyfit(np.log(h), np.log(e1), 1)[0]
+
+
+manufactured_fixture = shared(ManufacturedSolution, "manufactured")
+
+
+# =========================================================================== states of a discretization
+def two_region_materials(regularization: str = "rotation", beta: float | None = None) -> dict:
+    """Region 1 a solid, region 2 a medium whose regularization is as large as its bulk part
+    (test_energy's values)."""
+    return {1: sf.Hyperelastic(K=2.0, mu=0.7),
+            2: sf.ThirdMedium(mu=0.3, gamma=1.5, alpha_r=1.0 if beta is None else 150.0, K=0.2,
+                              regularization=regularization, beta=beta)}
+
+
+def nodal_field(disc, values):
+    """A ghosted vector with ``values(x (n, 2), key (n,)) -> (n, 2)`` at every local node."""
+    x = disc.create_vector()
+    with x.localForm() as xl:
+        xl.array[:] = values(disc.x_nodes, disc.node_key).ravel()
+    return x
+
+
+def state_of(disc):
+    """A smooth finite deformation plus node-key noise (partition independent)."""
+    def values(X, key):
+        smooth = 0.1 * np.stack([np.sin(2 * X[:, 0] + X[:, 1]), np.cos(X[:, 0] - 2 * X[:, 1])], axis=1)
+        return smooth + 0.01 * np.stack([np.sin(12.9898 * key), np.sin(78.233 * key)], axis=1)
+    return nodal_field(disc, values)
+
+
+def direction_of(disc):
+    """A direction of node-key noise (partition independent)."""
+    return nodal_field(disc, lambda X, key: np.stack([np.cos(3.7 * key), np.sin(5.3 * key + 1.0)], axis=1))
+
+
+# =========================================================================== a block on one rank
+class Block:
+    """A 1 x 0.2 block of 5 x 2 quadrilaterals (region ``meshes.SOLID``), on one rank."""
+
+    HEIGHT = 0.2
+
+    @classmethod
+    def mesh(cls) -> sf.PolygonMesh:
+        return sf.meshes.quad_rectangle(1.0, cls.HEIGHT, 5, 2, tag=sf.meshes.SOLID)
+
+    @classmethod
+    def compressed(cls, uy: float) -> sf.ContactProblem:
+        """The block of the neo-Hookean solid K = 5/3, mu = 5/14, clamped below ("bottom"), its top
+        face ("top") moved by (0, uy)."""
+        problem = sf.ContactProblem(cls.mesh(), {sf.meshes.SOLID: sf.Hyperelastic(K=5 / 3, mu=5 / 14)},
+                                    comm=MPI.COMM_SELF, verbose=False)
+        problem.fix(lambda x: np.isclose(x[1], 0.0), name="bottom")
+        problem.prescribe(lambda x: np.isclose(x[1], cls.HEIGHT), ux=0.0, uy=uy, name="top")
+        return problem
+
+
+block_fixture = shared(Block, "block")
+
+
+# =========================================================================== summary.json files
+def summary_content(*, converged: bool = True, loads=(0.5, 1.0), force: float = 2.0, extra: dict | None = None,
+            method: str = "vem", ranks: int = 2, uy: float = -1.0, condition: str = "load") -> dict:
+    """A summary.json content with one converged step per load factor (the force grows linearly)."""
+    steps = [{"step": k + 1, "load": load, "newton_iterations": 3, "converged": True,
+              "reaction": {condition: [0.0, -force * load]}, "extra": dict(extra or {})}
+             for k, load in enumerate(loads)]
+    return {"method": method, "dofs": 1234, "ranks": ranks, "wall_time_s": 12.5, "converged": converged,
+            "message": "" if converged else f"step {len(loads) + 1}: load step failed",
+            "polygons": 100, "projection_order_histogram": {"3": 90, "4": 10},
+            "parameters": {"method": method, "uy": uy}, "steps": steps}
+
+
+def write_summary(directory: pathlib.Path, content: dict) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "summary.json").write_text(json.dumps(content))
+
+
+# =========================================================================== PolygonMesh builders and checks
+def shoelace(xy):
+    x, y = np.asarray(xy, dtype=float).T
+    return 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def square_grid(nx, ny, h=1.0, x0=0.0, y0=0.0):
+    """Points and CCW vertex lists of an nx x ny grid of squares of side h."""
+    x, y = np.meshgrid(x0 + h * np.arange(nx + 1), y0 + h * np.arange(ny + 1))
+    points = np.column_stack([x.ravel(), y.ravel()])
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    polygons = [[idx[j, i], idx[j, i + 1], idx[j + 1, i + 1], idx[j + 1, i]] for j in range(ny) for i in range(nx)]
+    return points, polygons
+
+
+def assert_valid_triangulation(xy, triangles, interior, extra):
+    """``triangles`` (into vstack(xy, extra)) form a CCW triangulation of the CCW polygon ``xy``
+    in which every polygon edge is an edge of exactly one triangle, and the interior DOF point
+    (midpoint of nodes interior[0], interior[1]) lies strictly inside the polygon."""
+    n = len(xy)
+    nodes = np.vstack([xy, extra])
+    areas = np.array([shoelace(nodes[t]) for t in triangles])
+    scale = np.ptp(xy, axis=0).max()
+    assert np.all(areas > 1e-12 * scale**2)
+    assert np.isclose(areas.sum(), shoelace(xy), rtol=1e-12)
+    directed = [(t[k], t[(k + 1) % 3]) for t in triangles for k in range(3)]
+    assert len(set(directed)) == len(directed)
+    boundary = {(i, (i + 1) % n) for i in range(n)}
+    assert boundary <= set(directed)  # each polygon edge once (directed edges are unique) ...
+    assert not any((b, a) in directed for a, b in boundary)  # ... and never reversed
+    for a, b in set(directed) - boundary:  # every other edge is interior: shared by two triangles
+        assert (b, a) in directed
+    assert len(extra) == (1 if interior[0] == interior[1] else 0)
+    dof_point = 0.5 * (nodes[interior[0]] + nodes[interior[1]])
+    assert Path(xy).contains_point(dof_point)
+    assert min(distance_to_segment(dof_point, xy[a], xy[b]) for a, b in boundary) > 1e-9 * scale
+
+
+def assert_deepest_diagonal(xy, triangles, interior):
+    """The interior DOF of an ear-clipped polygon sits on the diagonal whose midpoint is deepest inside."""
+    n = len(xy)
+    diagonals = {tuple(sorted((t[k], t[(k + 1) % 3]))) for t in triangles for k in range(3)}
+    diagonals -= {tuple(sorted((i, (i + 1) % n))) for i in range(n)}
+    depth = {d: min(distance_to_segment(0.5 * (xy[d[0]] + xy[d[1]]), xy[i], xy[(i + 1) % n]) for i in range(n))
+             for d in diagonals}
+    assert len(diagonals) == n - 3
+    assert np.isclose(depth[tuple(sorted(interior))], max(depth.values()))
+
+
+def assert_valid_mesh(mesh):
+    """Every polygon CCW with positive area and a valid sub-triangulation in mesh numbering."""
+    assert mesh.offsets[0] == 0 and mesh.offsets[-1] == mesh.vertices.size
+    assert mesh.triangle_offsets[-1] == mesh.triangles.shape[0]
+    nodes = mesh.nodes
+    for i in range(mesh.n_polygons):
+        verts = mesh.polygon(i)
+        assert len(set(verts.tolist())) == verts.size >= 3
+        xy = mesh.points[verts]
+        assert shoelace(xy) > 0
+        local = {v: k for k, v in enumerate(verts.tolist())}
+        tri = mesh.triangles[mesh.triangle_offsets[i]:mesh.triangle_offsets[i + 1]]
+        fan = sorted(set(tri.ravel().tolist()) - set(local))
+        assert len(fan) <= 1 and all(f >= mesh.n_points for f in fan)
+        local.update({f: verts.size for f in fan})
+        extra = nodes[fan]
+        assert_valid_triangulation(xy, np.vectorize(local.get)(tri),
+                                   [local[v] for v in mesh.interior_node[i]], extra)
+
+
+def hanging_mesh(k, listed):
+    """k + 1 squares of side s = 1/(k+1) on [0, 1] x [0, s] below the unit square [0, 1] x [s, 1+s],
+    whose bottom side holds the k inner points of the fine row's top side; they are listed in its
+    vertex list if ``listed``. Returns points, polygons (the big square last), the k points."""
+    s = 1.0 / (k + 1)
+    fine_points, fine = square_grid(k + 1, 1, h=s)
+    n = len(fine_points)
+    points = np.vstack([fine_points, [[1.0, 1.0 + s], [0.0, 1.0 + s]]])
+    top = list(range(k + 2, n))  # (0, s), ..., (1, s) left to right
+    big = [top[0]] + (top[1:-1] if listed else []) + [top[-1], n, n + 1]
+    return points, fine + [big], top[1:-1]
+
+
+def glue(*blocks):
+    """Concatenate (points, polygons) blocks and merge coincident points."""
+    points = np.vstack([b[0] for b in blocks])
+    offsets = np.cumsum([0] + [len(b[0]) for b in blocks])
+    merged, inverse = np.unique(points.round(12), axis=0, return_inverse=True)
+    return merged, [[int(inverse[v + o]) for v in p] for (_, polygons), o in zip(blocks, offsets) for p in polygons]
+
+
+def distance_to_segment(p, a, b):
+    t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+    return np.hypot(*(p - a - t * (b - a)))
+
+
+class NonconvexPolygons:
+    """Counter-clockwise polygons (n, 2): an L (star-shaped), a comb and a spiral (not star-shaped)."""
+
+    STAR_L = np.array([(0, 0), (2, 0), (2, .2), (.2, .2), (.2, 2), (0, 2)], dtype=float)  # kernel [0,.2]^2
+    COMB = np.array([(0, 0), (5, 0), (5, 3), (4, 3), (4, 1), (3, 1), (3, 3), (2, 3), (2, 1), (1, 1), (1, 3), (0, 3)],
+                    dtype=float)  # empty kernel
+    SPIRAL = np.array([(0, 0), (4, 0), (4, 4), (1, 4), (1, 2), (2, 2), (2, 3), (3, 3), (3, 1), (0, 1)], dtype=float)
+
+
+nonconvex_fixture = shared(NonconvexPolygons, "nonconvex")
+
+
+# =========================================================================== the helpers as fixtures
+# one session fixture per shared helper, named like it (pytest collects the fixtures it finds among
+# the module's names)
+for _helper in (square_with_hanging_nodes, Quadratic, as_csr, build_one, polygon_moments, monomials_at, check_patch,
+                zero_eigenvalues,
+                two_region_materials, nodal_field, state_of, direction_of,
+                summary_content, write_summary,
+                shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh,
+                hanging_mesh, glue):
+    globals()[f"{_helper.__name__}_fixture"] = shared(_helper)
