@@ -423,8 +423,10 @@ def _first_edge(disc: Discretization, edges: np.ndarray, chosen: np.ndarray) -> 
     :func:`_normal_component`; None if none is chosen (collective)."""
     X = disc.x_nodes
     first = edges[chosen][:1]
-    found = [(f"({X[a, 0]:g}, {X[a, 1]:g})-({X[b, 0]:g}, {X[b, 1]:g})", int(_normal_component(X, first)[0]))
-             for a, _, b in first]
+    size = float(np.abs(disc.output_mesh.points).max())
+    shown = np.where(np.abs(X) <= 1e-12 * size, 0.0, X)     # coordinates' round-off is not shown
+    found = [(f"({shown[a, 0]:g}, {shown[a, 1]:g})-({shown[b, 0]:g}, {shown[b, 1]:g})",
+              int(_normal_component(X, first)[0])) for a, _, b in first]
     found = [f for part in disc.comm.allgather(found) for f in part]
     return found[0] if found else None
 
