@@ -207,16 +207,18 @@ def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
 # --------------------------------------------------------------------------- spaces, vectors, UFL
 def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
     """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
-    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx 0.11
-        return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
-    return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+    with quiet_compilers():                            # a new element is compiled on a cold cache
+        if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
+            return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
+        return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
 def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
     """(2, 2) tensors constant in every cell (DG0)."""
-    if hasattr(dolfinx.fem, "functionspace"):         # DOLFINx 0.11
-        return dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
-    return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(2, 2))
+    with quiet_compilers():
+        if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
+            return dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
+        return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(2, 2))
 
 
 #: MPI tag of the messages DOLFINx 0.11 exchanges while it builds an index map (any tag works: the

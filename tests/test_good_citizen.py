@@ -130,6 +130,22 @@ def test_without_a_handler_the_library_prints_and_verbose_false_prints_nothing(c
     assert sum(bool(re.match(r"step +\d+ +load", line)) for line in debug) == 2
 
 
+def test_a_cold_compiler_cache_prints_nothing(tmp_path):
+    """A run whose forms and elements are not compiled yet (an empty cache) prints the progress
+    and nothing of the compilers: no setuptools/cffi records reach the console."""
+    import os
+    import subprocess
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache"), "OMP_NUM_THREADS": "1"}
+    cmd = [sys.executable, str(ROOT / "demos" / "cbox.py"), "--method", "fem", "--h", "0.1", "--steps", "1",
+           "--uy", "-0.05", "--out", str(tmp_path / "out")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert any((tmp_path / "cache").rglob("*.c")), "the run compiled nothing: the cache was not cold"
+    output = proc.stdout + proc.stderr
+    assert "load reached 1 of 1" in output
+    assert "INFO:" not in output and "gcc" not in output and "build_ext" not in output, output
+
+
 # --------------------------------------------------------------------------- interrupts
 def test_second_sigint_interrupts_at_once():
     with interrupt.StopRequest(True) as stop:
