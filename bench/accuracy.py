@@ -130,6 +130,7 @@ def write_page(configs: typing.Sequence[Config], records: dict[str, dict], out: 
     (out / "accuracy.json").write_text(json.dumps(as_json(results, machine(), quick), indent=1, default=float) + "\n")
     (out / "accuracy.md").write_text(markdown(results, machine(), quick, cmd))
     if results_dir is not None:
+        results_dir.mkdir(parents=True, exist_ok=True)
         for name in ("accuracy.json", "accuracy.md"):
             shutil.copy(out / name, results_dir / name)
 
