@@ -162,6 +162,23 @@ def add_uy(p: argparse.ArgumentParser, default: float, where: str, note: str = "
                    help=f"vertical displacement of {where} (default %(default)s{note})")
 
 
+def add_both(p: argparse.ArgumentParser) -> None:
+    """``--both``: run SFVEM and FEM one after the other (:func:`methods`)."""
+    p.add_argument("--both", action="store_true", help="run SFVEM and FEM and plot them together")
+
+
+def methods(args: argparse.Namespace) -> tuple[str, ...]:
+    """The methods to run: both with ``--both``, else ``--method``."""
+    return METHODS if args.both else (args.method,)
+
+
+def sub_run(args: argparse.Namespace, method: str, out: pathlib.Path) -> argparse.Namespace:
+    """The arguments of one of several runs of a demo: ``method``, written to (or resumed from,
+    with ``--resume``) ``out``."""
+    return argparse.Namespace(**{**vars(args), "method": method, "out": out,
+                                 "resume": out if args.resume is not None else None})
+
+
 def parse_args(p: argparse.ArgumentParser, argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
     """Parse the command line; PETSc options (prefix ``tmc_``) stay as tokens in
     ``args.petsc_options`` (recorded in summary.json) and go to the solve (:func:`run`).

@@ -73,7 +73,7 @@ def make_parser() -> argparse.ArgumentParser:
                    help="number of chambers (default %(default)s; the toolkit's actuator has 11)")
     p.add_argument("--p", type=common.positive_float, default=0.005,
                    help="chamber pressure at load factor 1, MPa (default %(default)s)")
-    p.add_argument("--both", action="store_true", help="run SFVEM and FEM and plot them together")
+    common.add_both(p)
     return p
 
 
@@ -104,8 +104,7 @@ def observers(problem: sf.ContactProblem, benchmark: sf.meshes.Benchmark) -> dic
 def run(method: str, benchmark: sf.meshes.Benchmark, args: argparse.Namespace) -> tuple[int, pathlib.Path]:
     """One load path, written to ``<out>/<method>``; its exit code and directory."""
     out = args.out / method
-    sub = argparse.Namespace(**{**vars(args), "method": method, "out": out,
-                                "resume": out if args.resume is not None else None})
+    sub = common.sub_run(args, method, out)
     problem = build(benchmark, sub)
     if problem.comm.rank == 0:
         print(f"pneumatic actuator: {method}, {args.chambers} chambers, h = {args.h:g}, p = {args.p:g} MPa", flush=True)
@@ -203,8 +202,7 @@ def plot(curves: list[Curve], path_png: pathlib.Path, title: str) -> None:
 def main(argv: typing.Sequence[str] | None = None) -> int:
     args = common.parse_args(make_parser(), argv)
     benchmark = sf.meshes.pneumatic_actuator(args.h, args.chambers, geometry=GEOMETRY)
-    methods = common.METHODS if args.both else (args.method,)
-    runs = [run(method, benchmark, args) for method in methods]
+    runs = [run(method, benchmark, args) for method in common.methods(args)]
     if MPI.COMM_WORLD.rank == 0:
         curves = [read_curve(out, out.name) for _, out in runs]
         report(curves, args)

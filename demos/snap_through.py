@@ -70,7 +70,7 @@ def make_parser() -> argparse.ArgumentParser:
                    help="arc-length: load factor increment of the first step (default %(default)s)")
     p.add_argument("--max-growth", type=common.positive_float, default=4.0,
                    help="arc-length: largest arc length / first arc length (default %(default)s)")
-    p.add_argument("--both", action="store_true", help="run SFVEM and FEM and plot them together")
+    common.add_both(p)
     return p
 
 
@@ -99,8 +99,7 @@ def observers(problem: sf.ContactProblem, benchmark: sf.meshes.Benchmark) -> dic
 def run(method: str, control: str, benchmark: sf.meshes.Benchmark, args: argparse.Namespace) -> tuple[int, pathlib.Path]:
     """One path, written to ``<out>/<method>-<control>``; its exit code and directory."""
     out = args.out / f"{method}-{control}"
-    sub = argparse.Namespace(**{**vars(args), "method": method, "out": out,
-                                "resume": out if args.resume is not None else None})
+    sub = common.sub_run(args, method, out)
     problem = build(method, benchmark, sub, control)
     if problem.comm.rank == 0:
         print(f"snap-through: {method}, {control} control, h = {args.h:g}", flush=True)
@@ -224,8 +223,7 @@ def plot(paths: list[Path], path_png: pathlib.Path, title: str) -> None:
 def main(argv: typing.Sequence[str] | None = None) -> int:
     args = common.parse_args(make_parser(), argv)
     benchmark = sf.meshes.shallow_arch(args.h, span=SPAN, rise=RISE, thickness=THICKNESS, polygons=args.cells)
-    methods = common.METHODS if args.both else (args.method,)
-    runs = [run(method, control, benchmark, args) for method in methods for control in CONTROLS]
+    runs = [run(method, control, benchmark, args) for method in common.methods(args) for control in CONTROLS]
     if MPI.COMM_WORLD.rank == 0:
         paths = [read_path(out, out.name) for _, out in runs]
         report(paths, args)
