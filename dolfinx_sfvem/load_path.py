@@ -173,7 +173,8 @@ class LoadPath:
         constraints = p.constraints()
         p.disc.set_constraints(constraints.dofs)
         equilibrium = p.equilibrium()
-        return StepSolver(equilibrium, SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix), p.x,
+        return StepSolver(equilibrium, SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix,
+                                                     p.linear_solver), p.x,
                           constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
 
     def _wall(self) -> float:
@@ -345,7 +346,8 @@ class _Relaxation:
         disc = solver.equilibrium.disc
         self.x = solver.x
         self.equilibrium = Equilibrium(disc, [VectorLoad("relaxation", disc, r0, 1.0)])
-        self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix)
+        self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix,
+                                 solver.newton.linear_solver)
         self.g = solver.equilibrium.load * solver.final
 
     def solve_at(self, s: float) -> NewtonResult:

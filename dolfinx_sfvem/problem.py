@@ -34,6 +34,7 @@ from .adaptivity import Adaptivity
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
 from .energy import Energy
 from .equilibrium import Equilibrium
+from .linear_solvers import linear_solver_options
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
 from .refine import Refinement, refine_mesh
@@ -129,6 +130,10 @@ class ContactProblem:
     petsc_options_prefix
         Options prefix of this problem's solvers: command-line options reach them as
         ``-<prefix>snes_monitor`` (default ``tmc_``), unprefixed ones never do.
+    linear_solver
+        ``"direct"`` (default: MUMPS LDLᵀ, with the tangent's negative pivots) or ``"iterative"``
+        (GMRES + GAMG with the rigid-body near-nullspace, for large 3D problems;
+        :mod:`~dolfinx_sfvem.linear_solvers`); ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
@@ -155,7 +160,7 @@ class ContactProblem:
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
                  comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE,
                  petsc_options: typing.Mapping[str, typing.Any] | None = None,
-                 petsc_options_prefix: str = DEFAULT_PREFIX, **options):
+                 petsc_options_prefix: str = DEFAULT_PREFIX, linear_solver: str = "direct", **options):
         if method not in ("vem", "fem"):
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         if not (isinstance(petsc_options_prefix, str) and petsc_options_prefix and not petsc_options_prefix.startswith("-")):
@@ -166,6 +171,8 @@ class ContactProblem:
         self.verbose = options.get("verbose", True)
         self.petsc_options = {k.lstrip("-"): v for k, v in (petsc_options or {}).items()}
         self.petsc_options_prefix = petsc_options_prefix
+        linear_solver_options(linear_solver)                                   # checks the name
+        self.linear_solver = linear_solver
         self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
         self.materials = _materials_by_tag(mesh, materials)
         self.bcs: list[BoundaryCondition] = []
