@@ -52,3 +52,15 @@ def test_user_energy_example_of_the_guide_solves():
     expected = exact.pressurized_cylinder(1.0, 2.0, K=K, mu=mu, p=p).cavity_area_change / 4
     assert result.converged
     assert abs(result.steps[-1]["loads"]["inside"]["displacement"] / expected - 1) < 2e-3      # the mesh's own error: 2.6e-4
+
+
+def test_every_demo_with_a_figure_shows_it_in_the_gallery(tmp_path):
+    """A demo's pictures are found whether named <demo>.png or <demo>-*.png (the snap-through page
+    once showed "(no pictures yet)" beside docs/figures/snap-through.png)."""
+    for file in ("snap-through.png", "snap-through-curves.png", "snap-through-extra.txt", "snapper-x.png"):
+        (tmp_path / file).write_bytes(b"")
+    assert [file for file, _ in sitegen.figures_of("snap_through", tmp_path)] == ["snap-through.png",
+                                                                                  "snap-through-curves.png"]
+    demos, _ = sitegen.demo_names()
+    with_figures = {name for name in demos if sitegen.figures_of(name)}
+    assert "snap_through" in with_figures
