@@ -1,17 +1,20 @@
 """Strain-energy densities Psi(F, G) of the paper's §2, written once in UFL.
 
-Every energy is a function of the deformation gradient ``F`` (2, 2) and of its
-material gradient ``G`` (2, 2, 2), ``G_ijk = dF_ij/dX_k = d^2 u_i / dX_j dX_k``
-(not symmetrised in j, k), and of named scalar parameters. The same
-:meth:`Energy.psi` serves
+Every energy is a function of the deformation gradient ``F`` (d, d) and of its
+material gradient ``G`` (d, d, d), ``G_ijk = dF_ij/dX_k = d^2 u_i / dX_j dX_k``
+(not symmetrised in j, k), and of named scalar parameters; d = 2 (plane strain) or 3,
+read from ``F.ufl_shape``. The same :meth:`Energy.psi` serves
 
 - the pointwise kernels of the SFVEM (:mod:`dolfinx_sfvem.compiled_energy`), where ``F``
   and ``G`` are ``ufl.variable`` s of constants, and
-- the P2 FEM reference, where ``F = ufl.variable(I + grad(u))`` and
+- the P2/Q2 FEM reference, where ``F = ufl.variable(I + grad(u))`` and
   ``G = grad(grad(u))``.
 
-Plane strain throughout: ``C = F^T F`` with ``C_33 = 1``, so ``tr C = tr(C_2x2) + 1``
-and ``J = det F``. Parameters and energies are in consistent (unit-free) stress units.
+In 2D the energies are those of plane strain: the 3D deformation gradient is
+``[[F, 0], [0, 1]]`` and ``grad F`` has no out-of-plane parts, so ``tr C = tr(F^T F) + 1``,
+``J = det F``, and every formula below is the 3D one evaluated on that embedding (a one-layer
+slab with ``u_z = 0`` reproduces the 2D energies exactly; tests/test_energy.py). Parameters
+and energies are in consistent (unit-free) stress units.
 """
 from __future__ import annotations
 
@@ -31,27 +34,37 @@ NON_NEGATIVE: Bound = (0.0, False)
 
 
 # --------------------------------------------------------------------------- kinematics
+def dim(F: Expr) -> int:
+    """Spatial dimension d of ``F`` (d, d): 2 (plane strain) or 3."""
+    return F.ufl_shape[0]
+
+
 def J(F: Expr) -> Expr:
-    """Volume ratio ``J = det F`` (plane strain, ``F_33 = 1``)."""
+    """Volume ratio ``J = det F`` (in plane strain ``F_33 = 1``)."""
     return ufl.det(F)
 
 
 def tr_C(F: Expr) -> Expr:
-    """``tr C`` of the 3D right Cauchy-Green tensor in plane strain: ``tr(F^T F) + C_33``, ``C_33 = 1``."""
-    return ufl.tr(F.T * F) + 1
+    """``tr C`` of the 3D right Cauchy-Green tensor ``C = F^T F``; in plane strain ``C_33 = 1`` is added."""
+    return ufl.tr(F.T * F) + (3 - dim(F))
 
 
 def material_gradient(f: Callable[[Expr], Expr], F: Expr, G: Expr) -> Expr:
-    """Material gradient of a scalar function of F by the chain rule, shape (2,).
+    """Material gradient of a function of F by the chain rule: shape (d,) for a scalar f,
+    (m, d) for a vector f of length m.
 
     ``(grad f)_k = df/dF_ij G_ijk`` (paper Eq. 17 for ``f = det``); ``df/dF`` is
     taken by ``ufl.diff`` on a fresh ``ufl.variable`` of F, so F may be any
     expression, and outer derivatives (``ufl.diff`` / ``ufl.derivative``) pass through.
     """
     Fv = ufl.variable(F)
-    dfdF = ufl.diff(f(Fv), Fv)
+    value = f(Fv)
+    dfdF = ufl.diff(value, Fv)
     i, j, k = ufl.indices(3)
-    return ufl.as_vector(dfdF[i, j] * G[i, j, k], k)
+    if value.ufl_shape == ():
+        return ufl.as_vector(dfdF[i, j] * G[i, j, k], k)
+    m = ufl.Index()
+    return ufl.as_tensor(dfdF[m, i, j] * G[i, j, k], (m, k))
 
 
 # --------------------------------------------------------------------------- bulk energy
@@ -61,19 +74,41 @@ def neo_hookean(F: Expr, K: Expr, mu: Expr) -> Expr:
 
 
 # --------------------------------------------------------------------------- regularizations (Table 1)
+def skew_axial(F: Expr) -> Expr:
+    """``w = axial(F - F^T)`` with the sign of Eq. 12: in 3D ``(F23 - F32, F31 - F13, F12 - F21)``
+    (1-based), in 2D its only plane-strain component ``(F12 - F21,)``. For a rotation by an
+    angle phi about a unit axis a, ``w = 2 sin(phi) a`` up to the sign convention of Eq. 12."""
+    if dim(F) == 2:
+        return ufl.as_vector([F[0, 1] - F[1, 0]])
+    return ufl.as_vector([F[1, 2] - F[2, 1], F[2, 0] - F[0, 2], F[0, 1] - F[1, 0]])
+
+
+def rotation_cosine(F: Expr) -> Expr:
+    """``tr F - 1`` of the 3D deformation gradient (``2 cos(phi)`` for a rotation by phi); in plane
+    strain ``F11 + F22`` (Eq. 12's denominator)."""
+    return ufl.tr(F) + (2 - dim(F))
+
+
 def rotation_angle(F: Expr) -> Expr:
-    """Rotation angle of Eq. 12, ``phi = atan((F12 - F21) / (F11 + F22))``.
+    """Rotation angles of Eq. 12, one per axis: ``phi_i = atan2(w_i, tr F - 1)`` with ``w``
+    from :func:`skew_axial`; shape (1,) in 2D, where it is ``atan((F12 - F21) / (F11 + F22))``,
+    and (3,) in 3D, where ``phi_i`` is the rotation about axis i for a rotation about that axis.
 
     Written with ``atan2``: it has the same derivative wherever the quotient is
     defined and stays finite when ``F11 + F22 = 0``. (Eq. 12 as printed gives minus
-    the polar rotation angle of ``F``; only ``grad phi . grad phi`` enters Psi_r.)
+    the polar rotation angle of ``F``; only ``grad phi : grad phi`` enters Psi_r.) In plane
+    strain the out-of-plane angles are ``atan2(0, F11 + F22)``, constant: Eq. 15 is the 2D one.
     """
-    return _compat.atan2(F[0, 1] - F[1, 0], F[0, 0] + F[1, 1])
+    w = skew_axial(F)
+    c = rotation_cosine(F)
+    return ufl.as_vector([_compat.atan2(w[i], c) for i in range(w.ufl_shape[0])])
 
 
 def tan_rotation_angle(F: Expr) -> Expr:
-    """``t = (F12 - F21) / (F11 + F22) = tan(phi)`` of Eq. 16 (singular at ``F11 + F22 = 0``)."""
-    return (F[0, 1] - F[1, 0]) / (F[0, 0] + F[1, 1])
+    """``t = w / (tr F - 1)`` of Eq. 16, shape (1,) in 2D (``(F12 - F21) / (F11 + F22) = tan(phi)``),
+    (3,) in 3D (``tan(phi) a`` for a rotation by phi about the unit axis a: the skew part of F
+    over its trace, as in Wriggers et al. 2025); singular at ``tr F = 1``."""
+    return skew_axial(F) / rotation_cosine(F)
 
 
 def huhu(F: Expr, G: Expr) -> Expr:
@@ -81,26 +116,29 @@ def huhu(F: Expr, G: Expr) -> Expr:
     return ufl.inner(G, G) / 2
 
 
-def huhu_lulu(F: Expr, G: Expr) -> Expr:
-    """Eq. 9: ``Psi_r = 1/2 (G:G - L.L / n_dim)`` with ``L_i = G_ijj``."""
+def huhu_lulu(F: Expr, G: Expr, n_dim: int | None = None) -> Expr:
+    """Eq. 9: ``Psi_r = 1/2 (G:G - L.L / n_dim)`` with ``L_i = G_ijj``; ``n_dim`` defaults to the
+    dimension of F (with n_dim = 2 the 3D form reduces to the 2D one in plane strain)."""
     i, j = ufl.indices(2)
     L = ufl.as_vector(G[i, j, j], i)
-    n_dim = F.ufl_shape[0]
+    n_dim = dim(F) if n_dim is None else n_dim
     return (ufl.inner(G, G) - ufl.dot(L, L) / n_dim) / 2
 
 
 def rotation(F: Expr, G: Expr) -> Expr:
-    """Eq. 15: ``Psi_r = 1/2 (grad phi . grad phi + grad J . grad J)``, phi from Eq. 12, grad J from Eq. 17."""
+    """Eq. 15: ``Psi_r = 1/2 (grad phi : grad phi + grad J . grad J)``, phi from Eq. 12
+    (:func:`rotation_angle`, one angle per axis in 3D), grad J from Eq. 17."""
     grad_phi = material_gradient(rotation_angle, F, G)
     grad_J = material_gradient(J, F, G)
-    return (ufl.dot(grad_phi, grad_phi) + ufl.dot(grad_J, grad_J)) / 2
+    return (ufl.inner(grad_phi, grad_phi) + ufl.dot(grad_J, grad_J)) / 2
 
 
 def tan_rotation(F: Expr, G: Expr) -> Expr:
-    """Eq. 16: as Eq. 15 with ``t = tan(phi)`` in place of phi (not objective: ``grad t = (1 + t^2) grad phi``)."""
+    """Eq. 16: as Eq. 15 with ``t = tan(phi)`` in place of phi (:func:`tan_rotation_angle`; not
+    objective: ``grad t = (1 + t^2) grad phi`` in 2D)."""
     grad_t = material_gradient(tan_rotation_angle, F, G)
     grad_J = material_gradient(J, F, G)
-    return (ufl.dot(grad_t, grad_t) + ufl.dot(grad_J, grad_J)) / 2
+    return (ufl.inner(grad_t, grad_t) + ufl.dot(grad_J, grad_J)) / 2
 
 
 #: The regularizations of Table 1, by name: ``Psi_r(F, G)``.
@@ -248,16 +286,23 @@ class ThirdMedium(Energy):
         None switches the scaling off (``s = 1``).
     K : float >= 0
         Bulk modulus; 0 (default) gives Eq. 5.
+    n_dim : int or None
+        ``n_dim`` of Eq. 9 (``"huhu_lulu"`` only); None (default): the dimension of the mesh.
+        2 on a 3D mesh gives the 3D energy that equals the 2D one in plane strain.
     """
 
     is_medium = True
 
     def __init__(self, mu: float, gamma: float, alpha_r: float, regularization: str = "rotation",
-                 beta: float | None = None, K: float = 0.0):
+                 beta: float | None = None, K: float = 0.0, n_dim: int | None = None):
         if regularization not in REGULARIZATIONS:
             raise ValueError(f"ThirdMedium: unknown regularization {regularization!r}; "
                              f"valid: {sorted(REGULARIZATIONS)}")
+        if n_dim is not None and (regularization != "huhu_lulu" or n_dim not in (2, 3)):
+            raise ValueError(f"ThirdMedium: n_dim={n_dim!r} is a parameter of the 'huhu_lulu' "
+                             "regularization (Eq. 9) and must be 2 or 3")
         self.regularization = regularization
+        self.n_dim = n_dim
         self.scaled = beta is not None
         params = {"mu": mu, "gamma": gamma, "alpha_r": alpha_r, "K": K}
         bounds = {"mu": POSITIVE, "gamma": POSITIVE, "alpha_r": NON_NEGATIVE, "K": NON_NEGATIVE}
@@ -268,11 +313,12 @@ class ThirdMedium(Energy):
 
     @property
     def key(self) -> Hashable:
-        return (ThirdMedium, REGULARIZATIONS[self.regularization], self.scaled)
+        return (ThirdMedium, REGULARIZATIONS[self.regularization], self.scaled, self.n_dim)
 
     def psi(self, F: Expr, G: Expr, p: Mapping[str, Expr]) -> Expr:
         s = ufl.exp(-p["beta"] * J(F)) if self.scaled else 1
-        psi_r = REGULARIZATIONS[self.regularization](F, G)
+        options = {} if self.n_dim is None else {"n_dim": self.n_dim}
+        psi_r = REGULARIZATIONS[self.regularization](F, G, **options)
         return p["gamma"] * (neo_hookean(F, p["K"], p["mu"]) + p["alpha_r"] * s * psi_r)
 
     def unregularized_params(self) -> dict[str, float]:
@@ -282,7 +328,8 @@ class ThirdMedium(Energy):
 
     @property
     def name(self) -> str:
-        return f"ThirdMedium[{self.regularization}]"
+        n_dim = "" if self.n_dim is None else f", n_dim={self.n_dim}"
+        return f"ThirdMedium[{self.regularization}{n_dim}]"
 
 
 class UserEnergy(Energy):
