@@ -1,34 +1,8 @@
 """CellMesh: validation, facets and their orientation on tiny meshes (exact answers)."""
-import itertools
-
 import numpy as np
 import pytest
 
 from dolfinx_sfvem.cell_mesh import CellMesh, facet_normals
-
-CUBE = np.array(list(itertools.product((0.0, 1.0), repeat=3)))[:, ::-1]      # x fastest: tensor order
-
-
-def kuhn_tets():
-    """The unit cube as 6 tetrahedra around the diagonal (0,0,0)-(1,1,1) (some left-handed)."""
-    tets = []
-    for perm in itertools.permutations(range(3)):
-        path = [np.zeros(3)]
-        for axis in perm:
-            path.append(path[-1] + np.eye(3)[axis])
-        tets.append([int(np.flatnonzero((CUBE == p).all(axis=1))[0]) for p in path])
-    return np.array(tets)
-
-
-def hex_grid(n, lengths=(1.0, 1.0, 1.0)):
-    """n x n x n hexahedra of a box, DOLFINx vertex order."""
-    axes = [np.linspace(0.0, length, n + 1) for length in lengths]
-    points = np.array([(x, y, z) for z in axes[2] for y in axes[1] for x in axes[0]])
-    index = lambda i, j, k: (k * (n + 1) + j) * (n + 1) + i     # noqa: E731
-    cells = [[index(i + a, j + b, k + c) for c in (0, 1) for b in (0, 1) for a in (0, 1)]
-             for k in range(n) for j in range(n) for i in range(n)]
-    return points, np.array(cells)
-
 
 def divergence_checks(mesh, facets, volume):
     """Σ N dA = 0 and ⅓ Σ x·N dA = volume on a closed surface of outward normals."""
@@ -38,8 +12,8 @@ def divergence_checks(mesh, facets, volume):
     assert np.einsum("ij,ij->", centre, N) / mesh.gdim == pytest.approx(volume, rel=1e-13)
 
 
-def test_six_tetrahedra_fill_the_cube_with_outward_facets():
-    mesh = CellMesh(CUBE, kuhn_tets(), np.ones(6), "tetrahedron")
+def test_six_tetrahedra_fill_the_cube_with_outward_facets(tiny3d):
+    mesh = CellMesh(tiny3d.CUBE, tiny3d.kuhn_tets(), np.ones(6), "tetrahedron")
     assert mesh.volumes == pytest.approx(np.full(6, 1 / 6), rel=1e-14)     # left-handed ones reordered
     facets, cell, neighbour = mesh.boundary_facets()
     assert facets.shape == (12, 3) and np.all(neighbour == -1)            # two triangles per face
@@ -47,8 +21,8 @@ def test_six_tetrahedra_fill_the_cube_with_outward_facets():
     assert mesh.edges().shape[0] == 19                                    # 12 + 6 face diagonals + 1
 
 
-def test_one_hexahedron():
-    mesh = CellMesh(CUBE * [2.0, 1.0, 0.5], [np.arange(8)], [7], "hexahedron")
+def test_one_hexahedron(tiny3d):
+    mesh = CellMesh(tiny3d.CUBE * [2.0, 1.0, 0.5], [np.arange(8)], [7], "hexahedron")
     facets, cell, neighbour = mesh.boundary_facets()
     assert facets.shape == (6, 4)
     divergence_checks(mesh, facets, 1.0)
@@ -57,8 +31,8 @@ def test_one_hexahedron():
     assert np.all((np.abs(x[:, 0] - x[:, 2]) > 0).sum(axis=1) == 2)
 
 
-def test_hexahedra_with_two_regions_interface_and_surfaces():
-    points, cells = hex_grid(2)
+def test_hexahedra_with_two_regions_interface_and_surfaces(tiny3d):
+    points, cells = tiny3d.hex_grid(2)
     tags = np.where(points[cells].mean(axis=1)[:, 0] < 0.5, 1, 2)
     mesh = CellMesh(points, cells, tags, "hexahedron", {"solid": 1, "medium": 2})
     facets, cell, neighbour = mesh.boundary_facets()
@@ -82,7 +56,8 @@ def test_triangles_and_quadrilaterals():
     assert quad.gdim == 2 and quad.boundary_facets()[0].shape == (4, 2)
 
 
-def test_invalid_cells_are_named():
+def test_invalid_cells_are_named(tiny3d):
+    CUBE = tiny3d.CUBE
     with pytest.raises(ValueError, match="tetrahedron 1 .* zero volume"):
         flat = np.vstack([CUBE, [[0.5, 0.5, 0.0]]])
         CellMesh(flat, [[0, 1, 2, 4], [0, 1, 3, 8]], [1, 1], "tetrahedron")     # 0, 1, 3, 8 all on z = 0
@@ -98,8 +73,8 @@ def test_invalid_cells_are_named():
         CellMesh(CUBE, [[0, 1, 2, 3]], [1], "prism")
 
 
-def test_mirrored_hexahedron_is_reordered():
-    mesh = CellMesh(CUBE, [[0, 2, 1, 3, 4, 6, 5, 7]], [1], "hexahedron")     # x and y swapped: left-handed
+def test_mirrored_hexahedron_is_reordered(tiny3d):
+    mesh = CellMesh(tiny3d.CUBE, [[0, 2, 1, 3, 4, 6, 5, 7]], [1], "hexahedron")     # x and y swapped: left-handed
     assert mesh.volumes == pytest.approx([1.0])
     divergence_checks(mesh, mesh.boundary_facets()[0], 1.0)
 

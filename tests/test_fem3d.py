@@ -8,19 +8,18 @@ from petsc4py import PETSc
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.cell_mesh import CellMesh
 from dolfinx_sfvem.fem import LagrangeDiscretization
-from test_cell_mesh import CUBE, hex_grid, kuhn_tets
 
 K, MU = 5 / 3, 5 / 14
 H = np.array([[0.02, -0.01, 0.03], [0.015, -0.02, 0.0], [0.01, 0.02, 0.025]])
 
 
-def hex_mesh():
-    points, cells = hex_grid(2, (2.0, 1.0, 1.0))
+def hex_mesh(tiny3d):
+    points, cells = tiny3d.hex_grid(2, (2.0, 1.0, 1.0))
     return CellMesh(points, cells, np.ones(len(cells)), "hexahedron")
 
 
-def tet_mesh():
-    return CellMesh(CUBE * [2.0, 1.0, 1.0], kuhn_tets(), np.ones(6), "tetrahedron")
+def tet_mesh(tiny3d):
+    return CellMesh(tiny3d.CUBE * [2.0, 1.0, 1.0], tiny3d.kuhn_tets(), np.ones(6), "tetrahedron")
 
 
 def neo_hookean(F):
@@ -30,8 +29,8 @@ def neo_hookean(F):
 
 
 @pytest.mark.parametrize("make, n_nodes", [(hex_mesh, 5 * 5 * 5), (tet_mesh, 8 + 19)])
-def test_nodes_keys_and_homogeneous_state(make, n_nodes):
-    mesh = make()
+def test_nodes_keys_and_homogeneous_state(make, n_nodes, tiny3d):
+    mesh = make(tiny3d)
     disc = LagrangeDiscretization.from_cell_mesh(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, MPI.COMM_WORLD,
                                                  verbose=False)
     assert disc.gdim == 3 and disc.num_dofs_global == 3 * n_nodes
@@ -61,8 +60,8 @@ def test_nodes_keys_and_homogeneous_state(make, n_nodes):
         v.destroy()
 
 
-def test_body_force_and_displacement_at():
-    mesh = hex_mesh()
+def test_body_force_and_displacement_at(tiny3d):
+    mesh = hex_mesh(tiny3d)
     disc = LagrangeDiscretization.from_cell_mesh(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, MPI.COMM_WORLD,
                                                  verbose=False)
     b = disc.body_force_vector(lambda x: np.array([0.0 * x[0], 0.0 * x[0], -1.0 + 0.0 * x[0]]))

@@ -9,7 +9,6 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.cell_mesh import CellMesh
-from test_cell_mesh import CUBE, hex_grid, kuhn_tets
 
 K, MU, STRETCH = 5 / 3, 5 / 14, 0.1
 LENGTHS = np.array([2.0, 1.0, 1.0])
@@ -29,14 +28,15 @@ def uniaxial():
     return s, neo_hookean_P(np.diag([1 + STRETCH, s, s]))[0, 0]
 
 
-def meshes():
-    points, cells = hex_grid(2, LENGTHS)
+def meshes(tiny3d):
+    points, cells = tiny3d.hex_grid(2, LENGTHS)
     return {"hexahedron": CellMesh(points, cells, np.ones(len(cells)), "hexahedron"),
-            "tetrahedron": CellMesh(CUBE * LENGTHS, kuhn_tets(), np.ones(6), "tetrahedron")}
+            "tetrahedron": CellMesh(tiny3d.CUBE * LENGTHS, tiny3d.kuhn_tets(), np.ones(6), "tetrahedron")}
 
 
-def bar(cell):
-    problem = sf.ContactProblem(meshes()[cell], {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
+def bar(tiny3d, cell, comm=MPI.COMM_WORLD):
+    problem = sf.ContactProblem(meshes(tiny3d)[cell], {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", comm=comm,
+                                verbose=False)
     problem.fix(lambda x: np.isclose(x[0], 0.0), components="x", name="x0")
     problem.fix(lambda x: np.isclose(x[1], 0.0), components="y", name="y0")
     problem.fix(lambda x: np.isclose(x[2], 0.0), components=["z"], name="z0")
@@ -45,8 +45,8 @@ def bar(cell):
 
 
 @pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
-def test_uniaxial_stretch_is_exact(cell, tmp_path):
-    problem = bar(cell)
+def test_uniaxial_stretch_is_exact(cell, tmp_path, tiny3d):
+    problem = bar(tiny3d, cell)
     result = problem.solve(steps=2, out=tmp_path)
     assert result.converged
     s, P11 = uniaxial()
@@ -62,17 +62,17 @@ def test_uniaxial_stretch_is_exact(cell, tmp_path):
     assert np.load(tmp_path / "checkpoint.npz")["values"].shape[1] == 3
 
 
-def test_resume_continues_the_same_path(tmp_path):
-    first = bar("hexahedron")
+def test_resume_continues_the_same_path(tmp_path, tiny3d):
+    first = bar(tiny3d, "hexahedron")
     first.solve(steps=4, out=tmp_path, until=0.5)
-    resumed = bar("hexahedron")
+    resumed = bar(tiny3d, "hexahedron")
     result = resumed.solve(steps=4, out=tmp_path, resume=True)
     assert result.converged and len(result.steps) == 4
     assert resumed.reactions()["pull"][0] == pytest.approx(uniaxial()[1], rel=1e-10)
 
 
-def test_three_d_errors():
-    mesh = meshes()["hexahedron"]
+def test_three_d_errors(tiny3d):
+    mesh = meshes(tiny3d)["hexahedron"]
     with pytest.raises(ValueError, match="SFVEM on polyhedra is not available yet; use method='fem'"):
         sf.ContactProblem(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, verbose=False)
     problem = sf.ContactProblem(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
@@ -103,3 +103,25 @@ def test_dolfinx_mesh_and_tags_and_point_force():
     assert tip[2] < 0.0
     assert result.steps[-1]["loads"][force.name]["displacement"] == pytest.approx(-tip[2], rel=1e-10)
     assert problem.reactions()["fixed"] == pytest.approx([0.0, 0.0, 1e-3], abs=1e-12)
+
+
+def cantilever(tiny3d, comm):
+    points, cells = tiny3d.hex_grid((4, 2, 2), LENGTHS)
+    problem = sf.ContactProblem(CellMesh(points, cells, np.ones(len(cells)), "hexahedron"),
+                                {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", comm=comm, verbose=False)
+    problem.fix(lambda x: np.isclose(x[0], 0.0))
+    problem.prescribe(lambda x: np.isclose(x[0], 2.0), uz=-0.3, name="tip")
+    result = problem.solve(steps=2)
+    assert result.converged
+    return problem.reactions(), problem.displacement_at([[2.0, 0.5, 0.5], [1.0, 1.0, 0.0], [0.25, 0.0, 1.0]])
+
+
+@pytest.mark.mpi
+def test_same_results_on_world_and_self(tiny3d):
+    """A bent hexahedral cantilever on all ranks and on one: reactions and displacements to 1e-9."""
+    world, u_world = cantilever(tiny3d, MPI.COMM_WORLD)
+    alone, u_alone = cantilever(tiny3d, MPI.COMM_SELF)
+    for name in alone:
+        assert np.allclose(world[name], alone[name], rtol=1e-9, atol=1e-12 * np.abs(alone[name]).max())
+    assert np.allclose(u_world, u_alone, rtol=1e-9, atol=1e-12)
+    assert abs(alone["tip"][2]) > 0.0
