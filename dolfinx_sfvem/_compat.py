@@ -90,11 +90,12 @@ def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.
 _CREATE_MESH_TAKES_GHOST_MODE = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
 
 
-def coordinate_domain(cell: str) -> ufl.Mesh:
-    """The ufl domain of an affine mesh in 2D of ``cell`` s (``"triangle"`` or ``"quadrilateral"``)."""
+def coordinate_domain(cell: str, gdim: int = 2) -> ufl.Mesh:
+    """The ufl domain of an affine mesh of ``cell`` s (``"triangle"``, ``"quadrilateral"``,
+    ``"tetrahedron"``, ``"hexahedron"``) in ``gdim`` dimensions."""
     if _basix_ufl is None:             # UFL's own elements (DOLFINx 0.5)
-        return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
-    return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(2,)))
+        return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1, dim=gdim))
+    return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(gdim,)))
 
 
 def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], cell: str,
@@ -115,7 +116,7 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
     """
     cells = np.ascontiguousarray(cells, dtype=np.int64)
     x = np.ascontiguousarray(x, dtype=np.float64)
-    domain = coordinate_domain(cell)
+    domain = coordinate_domain(cell, x.shape[1])
     if destinations is not None:
         adjacency = dolfinx.cpp.graph.AdjacencyList_int32(*destinations)
 
@@ -214,11 +215,12 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
 
 
 def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
-    """(2, 2) tensors constant in every cell (DG0)."""
+    """(d, d) tensors constant in every cell (DG0), d the geometric dimension."""
+    d = mesh.geometry.dim
     with quiet_compilers():
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
-            return dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
-        return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(2, 2))
+            return dolfinx.fem.functionspace(mesh, ("DG", 0, (d, d)))
+        return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(d, d))
 
 
 #: MPI tag of the messages DOLFINx 0.11 exchanges while it builds an index map (any tag works: the
@@ -391,25 +393,30 @@ COUNTER_CLOCKWISE = {3: [0, 1, 2], 4: [0, 1, 3, 2]}
 
 
 def create_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], *,
-                            ghost_facet_neighbours: bool = False) -> dolfinx.mesh.Mesh:
-    """Distributed mesh of triangles or quadrilaterals partitioned by DOLFINx's graph partitioner.
+                            ghost_facet_neighbours: bool = False, cell: str | None = None) -> dolfinx.mesh.Mesh:
+    """Distributed affine mesh partitioned by DOLFINx's graph partitioner.
 
     Parameters
     ----------
-    cells : (n_cells, 3 or 4) int64
-        Input cells held by this rank (usually all on rank 0, none elsewhere), vertices
-        counter-clockwise. Quadrilaterals must be parallelograms for second derivatives of
-        the geometry-mapped fields to be exact.
-    x : (n_nodes, 2) float64
+    cells : (n_cells, k) int64
+        Input cells held by this rank (usually all on rank 0, none elsewhere): without ``cell``,
+        triangles or quadrilaterals with their vertices counter-clockwise; with ``cell``, in
+        DOLFINx's vertex order. Quadrilaterals and hexahedra must be parallelograms and
+        parallelepipeds for second derivatives of the geometry-mapped fields to be exact.
+    x : (n_nodes, gdim) float64
         Input node coordinates held by this rank.
     ghost_facet_neighbours
         Ghost the cells across the partition's facets (``GhostMode.shared_facet``), as interior
         facet integrals need; otherwise no ghost cells.
+    cell
+        The cell type (e.g. ``"tetrahedron"``, ``"hexahedron"``); None: 2D cells counter-clockwise.
     """
+    ghost_mode = dolfinx.mesh.GhostMode.shared_facet if ghost_facet_neighbours else dolfinx.mesh.GhostMode.none
+    if cell is not None:
+        return _create_mesh(comm, cells, x, cell, ghost_mode)
     n_vertices = cells.shape[1]
     if n_vertices not in _CELL:
         raise ValueError(f"cells must have 3 or 4 vertices, not {n_vertices}")
-    ghost_mode = dolfinx.mesh.GhostMode.shared_facet if ghost_facet_neighbours else dolfinx.mesh.GhostMode.none
     return _create_mesh(comm, cells[:, COUNTER_CLOCKWISE[n_vertices]], x, _CELL[n_vertices], ghost_mode)
 
 
@@ -462,3 +469,25 @@ class CompiledExpression:
         """Values (n_cells, n_points, value_size) on the local ``cells``."""
         values = self._expression.eval(*self._mesh_argument, np.ascontiguousarray(cells, dtype=np.int32))
         return values.reshape(cells.size, self._n_points, -1)
+
+
+def locate_cells(mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64], n_cells: int) -> npt.NDArray[np.int32]:
+    """For every point (n, gdim) the first of the local cells [0, ``n_cells``) that contains it,
+    -1 for none (DOLFINx's bounding-box tree and its exact collision test)."""
+    import dolfinx.geometry
+    tdim = mesh.topology.dim
+    xyz = np.zeros((len(points), 3))
+    xyz[:, :points.shape[1]] = points
+    cells = np.arange(n_cells, dtype=np.int32)
+    if hasattr(dolfinx.geometry, "bb_tree"):          # DOLFINx 0.11
+        tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=cells)
+        candidates = dolfinx.geometry.compute_collisions_points(tree, xyz)
+    else:
+        tree = dolfinx.geometry.BoundingBoxTree(mesh, tdim, cells)
+        candidates = dolfinx.geometry.compute_collisions(tree, xyz)
+    colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, xyz)
+    offsets = np.asarray(colliding.offsets)
+    found = np.diff(offsets) > 0
+    out = np.full(len(points), -1, dtype=np.int32)
+    out[found] = np.asarray(colliding.array)[offsets[:-1][found]]
+    return out

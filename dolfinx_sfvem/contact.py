@@ -442,3 +442,52 @@ def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_norma
                 elif d < g[p]:
                     g[p], partner[p] = d, s
     return g, partner, depth
+
+
+class UncheckedSurface:
+    """The interface of :class:`SolidBoundary` without any check: every gap infinite, no contact
+    pressure. What :func:`solid_boundary` gives for a 3D mesh while the 3D contact geometry
+    (``solid_surface.SolidSurface``) is not installed."""
+
+    n_bodies = 0
+
+    def __init__(self, gdim: int, tolerance: float = OVERLAP_TOLERANCE):
+        self.gdim = gdim
+        self.tolerance = tolerance
+        self.node_keys = np.empty(0, dtype=np.int64)
+        self.X = np.empty((0, gdim))
+
+    def _none(self) -> Gap:
+        nan = (math.nan,) * self.gdim
+        return Gap(math.inf, nan, nan, -1, -1, -1, -1, 0.0)
+
+    def gap(self, u: np.ndarray | None) -> Gap:
+        return self._none()
+
+    def gap_and_pressure(self, u, f, f_material) -> tuple[Gap, ContactPressure]:
+        empty = np.empty((0, self.gdim))
+        none = np.empty(0, dtype=np.int64)
+        return self._none(), ContactPressure(empty, empty, np.empty(0), none, none, np.empty(0, dtype=bool), none, [])
+
+    def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
+        return np.empty((0, self.gdim)) if comm.rank == 0 else None
+
+    def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
+        return self._none()
+
+
+def solid_boundary(mesh, solid_tags: typing.Collection[int],
+                   midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
+                   tolerance: float = OVERLAP_TOLERANCE,
+                   face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None):
+    """The contact checks of a mesh: :class:`SolidBoundary` for a polygon mesh, the 3D
+    ``solid_surface.SolidSurface`` for a 3D :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (the only
+    place that tells the two apart); both with the same interface. Without the 3D contact
+    geometry installed, a 3D mesh gets :class:`UncheckedSurface` (no checks)."""
+    if isinstance(mesh, PolygonMesh):
+        return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
+    try:
+        from .solid_surface import SolidSurface
+    except ImportError:
+        return UncheckedSurface(mesh.gdim, tolerance)
+    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys=face_centre_keys)

@@ -5,8 +5,8 @@ Newton solver, the run output and the contact checks use (docs/architecture.md).
 what is the same for both methods: the unknowns' layout, the key-based state transfer of
 checkpoints, the error norms and the Dirichlet constraints (:class:`Constraints`).
 
-Layout of the unknowns (both methods): PETSc vectors with block size 2, local index
-``2 * node + component``, nodes numbered owned first, then ghosts. A node's *key* is a
+Layout of the unknowns (both methods): PETSc vectors with block size d (:attr:`Discretization.gdim`,
+2 or 3), local index ``d * node + component``, nodes numbered owned first, then ghosts. A node's *key* is a
 partition-independent integer (the same node has the same key on any number of ranks), so a
 state saved on one partition can be read on another.
 """
@@ -21,6 +21,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .energy import Energy
+from .cell_mesh import CellMesh
 from .polygon_mesh import PolygonMesh
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
@@ -201,15 +202,17 @@ class Discretization(abc.ABC):
     method : str
         ``"vem"`` or ``"fem"`` (summary.json).
     comm : MPI.Comm
-    x_nodes : (n_local_nodes, 2)
+    gdim : int
+        The dimension d (2 or 3): d unknowns per node.
+    x_nodes : (n_local_nodes, d)
         Reference coordinates of the local nodes.
     node_key : (n_local_nodes,) int64
         Partition-independent key of every local node (module docstring).
     node_point : (n_local_nodes,) int64
         The :attr:`output_mesh` point of every vertex node, -1 for the others.
     global_nodes : (n_local_nodes,) int64
-        Global number of every local node (its unknowns are 2 n + component).
-    element_loops : tuple of (n_el + 1,), (offsets[-1],), (n_el,) int64 arrays
+        Global number of every local node (its unknowns are d n + component).
+    element_loops : tuple of (n_el + 1,), (offsets[-1],), (n_el,) int64 arrays, or None in 3D
         ``(offsets, nodes, element)``: the boundary of every element this rank owns, element
         e's local nodes ``v_0, m_0, v_1, m_1, ...`` (vertices and edge midpoints,
         counter-clockwise) at ``nodes[offsets[e]:offsets[e + 1]]`` and its polygon (FEM: cell)
@@ -218,6 +221,7 @@ class Discretization(abc.ABC):
 
     method: str
     comm: MPI.Comm
+    gdim: int
     x_nodes: np.ndarray
     node_key: np.ndarray
     node_point: np.ndarray
@@ -238,22 +242,22 @@ class Discretization(abc.ABC):
     @property
     @abc.abstractmethod
     def num_dofs_global(self) -> int:
-        """Unknowns over all ranks (2 per node)."""
+        """Unknowns over all ranks (d per node)."""
 
     @property
     def n_owned_dofs(self) -> int:
         """Unknowns owned by this rank."""
-        return 2 * self.n_owned_nodes
+        return self.gdim * self.n_owned_nodes
 
     @property
     def n_local_dofs(self) -> int:
         """Owned and ghost unknowns of this rank."""
-        return 2 * self.n_local_nodes
+        return self.gdim * self.n_local_nodes
 
     # ------------------------------------------------------------------ PETSc objects
     @abc.abstractmethod
     def create_vector(self) -> PETSc.Vec:
-        """A ghosted vector of the unknowns (block size 2)."""
+        """A ghosted vector of the unknowns (block size d)."""
 
     @abc.abstractmethod
     def create_matrix(self) -> PETSc.Mat:
@@ -285,7 +289,8 @@ class Discretization(abc.ABC):
 
     @abc.abstractmethod
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
-        """External force vector of a body force ``f(x)`` (2, n) -> (2, n) per unit reference area."""
+        """External force vector of a body force ``f(x)`` (d, n) -> (d, n) per unit reference area
+        (volume in 3D)."""
 
     # ------------------------------------------------------------------ energy terms
     @abc.abstractmethod
@@ -316,32 +321,32 @@ class Discretization(abc.ABC):
     # ------------------------------------------------------------------ locating unknowns
     @abc.abstractmethod
     def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local nodes (owned and ghost) selected by ``marker`` (a function of coordinates (2, n)
+        """Local nodes (owned and ghost) selected by ``marker`` (a function of coordinates (d, n)
         returning a bool array (n,)) and/or region ``tags``, consistent across ranks."""
 
     def locate_dofs(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
                     component: int | None = None) -> np.ndarray:
         """Local blocked unknowns (sorted, int64) at the nodes of :meth:`locate_nodes`;
-        ``component`` 0, 1, or None for both."""
+        ``component`` 0, ..., d - 1, or None for all."""
         nodes = self.locate_nodes(marker, tags)
-        comps = (0, 1) if component is None else (component,)
-        return np.sort(np.concatenate([2 * nodes + c for c in comps])).astype(np.int64)
+        comps = range(self.gdim) if component is None else (component,)
+        return np.sort(np.concatenate([self.gdim * nodes + c for c in comps])).astype(np.int64)
 
     def dof_coordinates(self, dofs: np.ndarray) -> np.ndarray:
-        """Reference coordinates (k, 2) of the nodes of the local unknowns ``dofs`` (k,)."""
-        return self.x_nodes[dofs // 2]
+        """Reference coordinates (k, d) of the nodes of the local unknowns ``dofs`` (k,)."""
+        return self.x_nodes[dofs // self.gdim]
 
     @abc.abstractmethod
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values (k,) of the unknowns ``dofs`` (k,) of one component for the function
-        ``value(x)`` (2, n) -> (n,)."""
+        ``value(x)`` (d, n) -> (n,)."""
 
     # ------------------------------------------------------------------ state (checkpoints, gathers)
     def get_state(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """Owned nodal values with partition-independent keys: (keys (k,), values (k, 2))."""
+        """Owned nodal values with partition-independent keys: (keys (k,), values (k, d))."""
         n_owned = self.n_owned_nodes
         with x.localForm() as xl:
-            values = xl.array_r.reshape(-1, 2)[:n_owned].copy()
+            values = xl.array_r.reshape(-1, self.gdim)[:n_owned].copy()
         return self.node_key[:n_owned].copy(), values
 
     def set_state(self, keys: np.ndarray, values: np.ndarray, x: PETSc.Vec) -> None:
@@ -356,20 +361,20 @@ class Discretization(abc.ABC):
     # ------------------------------------------------------------------ evaluation
     @abc.abstractmethod
     def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Displacement at reference ``points`` (n, 2) inside this rank's elements: (values (n, 2),
+        """Displacement at reference ``points`` (n, d) inside this rank's elements: (values (n, d),
         found (n,) bool); points elsewhere get zeros and False."""
 
     @abc.abstractmethod
     def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The discrete displacement and its gradient at this rank's quadrature points of the error
-        norms: (points (n, 2), weights (n,) [area], u_h (n, 2), ∇u_h (n, 2, 2))."""
+        norms: (points (n, d), weights (n,) [area or volume], u_h (n, d), ∇u_h (n, d, d))."""
 
     def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
                     grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:
         """``‖u − u_h‖_L2`` and ``|u − u_h|_H1 = ‖∇u − ∇u_h‖_L2`` over the mesh (collective), with u_h and
         ∇u_h of :meth:`quadrature_fields`.
 
-        ``u_exact(x)`` returns (2, n) and ``grad_exact(x)`` returns (2, 2, n) for x of shape (2, n).
+        ``u_exact(x)`` returns (d, n) and ``grad_exact(x)`` returns (d, d, n) for x of shape (d, n).
         """
         X, w, u_h, grad_h = self.quadrature_fields(x)
         e0 = np.sum(w * np.sum((np.asarray(u_exact(X.T)).T - u_h) ** 2, axis=1))
@@ -380,12 +385,13 @@ class Discretization(abc.ABC):
     # ------------------------------------------------------------------ output
     @property
     @abc.abstractmethod
-    def output_mesh(self) -> PolygonMesh:
-        """The polygon mesh (identical on all ranks) that pictures and contact checks use."""
+    def output_mesh(self) -> PolygonMesh | CellMesh:
+        """The mesh (identical on all ranks) that pictures and contact checks use: a polygon mesh in
+        2D, a :class:`~dolfinx_sfvem.cell_mesh.CellMesh` in 3D."""
 
     @abc.abstractmethod
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """(point indices (k,) of :attr:`output_mesh`, displacements (k, 2)) known on this rank."""
+        """(point indices (k,) of :attr:`output_mesh`, displacements (k, d)) known on this rank."""
 
     @abc.abstractmethod
     def output_function(self, x: PETSc.Vec, u=None):
@@ -402,12 +408,12 @@ class Discretization(abc.ABC):
 
     @abc.abstractmethod
     def cell_stress(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """F and the first Piola stress P = ∂Ψ/∂F (Eq. 30) of the region's energy, (n, 2, 2) each,
+        """F and the first Piola stress P = ∂Ψ/∂F (Eq. 30) of the region's energy, (n, d, d) each,
         at the centre of every owned cell of :attr:`dolfinx_mesh` (ghosts of x current)."""
 
     def stress(self, x: PETSc.Vec, kind: str = "cauchy"):
         """The stress as a ``dolfinx.fem.Function``, constant in every cell of :attr:`dolfinx_mesh`
-        (DG0, shape (2, 2)): ``"cauchy"`` σ = P Fᵀ / J (the in-plane components) or ``"piola"``
+        (DG0, shape (d, d)): ``"cauchy"`` σ = P Fᵀ / J (in 2D the in-plane components) or ``"piola"``
         P (the first Piola-Kirchhoff stress), at the cell centres (:meth:`cell_stress`)."""
         import dolfinx.fem
         from . import _compat
@@ -419,7 +425,7 @@ class Discretization(abc.ABC):
         V = _compat.cell_tensor_space(self.dolfinx_mesh)
         stress = dolfinx.fem.Function(V, name="sigma" if kind == "cauchy" else "P")
         dofs = _compat.cell_dofs(V)[:P.shape[0], 0]
-        stress.x.array.reshape(-1, 4)[dofs] = P.reshape(-1, 4)
+        stress.x.array.reshape(-1, self.gdim ** 2)[dofs] = P.reshape(-1, self.gdim ** 2)
         stress.x.scatter_forward()
         return stress
 

@@ -89,9 +89,9 @@ class Equilibrium:
         f = out if out is not None else self.disc.create_vector()
         with f.localForm() as fl, (x.localForm() if x is not None else contextlib.nullcontext()) as xl:
             fl.set(0.0)
-            u = None if xl is None else xl.array_r.reshape(-1, 2)
+            u = None if xl is None else xl.array_r.reshape(-1, self.disc.gdim)
             for load in loads:
-                load.add_force(u, fl.array.reshape(-1, 2))
+                load.add_force(u, fl.array.reshape(-1, self.disc.gdim))
         f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return f
 
@@ -116,7 +116,7 @@ class Equilibrium:
         stiff = [load for load in self._followers() if load.has_stiffness]
         if stiff and self.load != 0.0:
             with x.localForm() as xl:
-                u = xl.array_r.reshape(-1, 2)
+                u = xl.array_r.reshape(-1, self.disc.gdim)
                 for load in stiff:
                     load.add_stiffness(u, A, -self.load)
             A.assemble()

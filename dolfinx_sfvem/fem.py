@@ -1,7 +1,9 @@
 """Degree-2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
 
 P2 on triangles, a triangulation of the polygon mesh's regions by default; or the cells of a
-given mesh (``fem_mesh``): P2 on its triangles, Q2 on its parallelograms. The total energy
+given mesh (``fem_mesh``): P2 on its triangles, Q2 on its parallelograms; in 3D the cells of a
+:class:`~dolfinx_sfvem.cell_mesh.CellMesh` (:meth:`LagrangeDiscretization.from_cell_mesh`): P2
+on tetrahedra, Q2 on parallelepipeds. The total energy
 (paper Eq. 46 with the FEM interpolation in place of the projections)
 
     Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
@@ -51,6 +53,7 @@ from .energy import Energy
 from .injectivity import folded_elements, gather_count
 from .logs import quiet_compilers, say
 from .node_keys import sfvem_unknowns
+from .cell_mesh import CELL_TYPES, CellMesh, gather_cells, reference_edges, reference_facets, reference_vertices
 from .polygon_mesh import PolygonMesh, edge_key
 from .remesh import matched_triangulation, triangulate
 
@@ -61,12 +64,11 @@ QUADRATURE_DEGREE = 4
 #: degree of the rule used by :meth:`LagrangeDiscretization.error_norms`
 ERROR_QUADRATURE_DEGREE = 8
 
-#: vertex count -> the vertices (DOLFINx's local numbering) of the reference edges that carry
-#: the degree-2 dofs n_vertices + k: P2 dof 3 + k sits on the edge opposite vertex k; Q2 dofs
-#: 4..7 on the edges of the tensor-product quadrilateral (its dof 8 is the cell centre)
-_EDGE_VERTICES = {3: ((1, 2), (0, 2), (0, 1)), 4: ((0, 1), (0, 2), (1, 3), (2, 3))}
-#: vertex count -> reference coordinates of the cell's vertices (DOLFINx's local numbering)
-_REFERENCE_VERTICES = {3: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), 4: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0))}
+#: cell type -> the vertices (DOLFINx's local numbering) of the reference edges that carry the
+#: degree-2 dofs n_vertices + k (a triangle's dof 3 + k on the edge opposite vertex k; a Q2
+#: quadrilateral's dof 8 is its centre; a Q2 hexahedron's dofs 20..25 are its face centres, 26
+#: its centre)
+_EDGE_VERTICES = {cell: tuple(map(tuple, reference_edges(cell))) for cell in CELL_TYPES}
 
 
 def _form(form: ufl.Form) -> dolfinx.fem.Form:
@@ -75,44 +77,23 @@ def _form(form: ufl.Form) -> dolfinx.fem.Form:
         return dolfinx.fem.form(form)
 
 
-def _boundary_loop(n_vertices: int) -> np.ndarray:
-    """Local dofs of a cell's boundary in order: vertex, midpoint of the edge to the next
+def _boundary_loop(cell: str) -> np.ndarray:
+    """Local dofs of a 2D cell's boundary in order: vertex, midpoint of the edge to the next
     vertex (counter-clockwise on the reference cell), next vertex, ..."""
-    edge_dof = {frozenset(pair): n_vertices + k for k, pair in enumerate(_EDGE_VERTICES[n_vertices])}
+    n_vertices = CELL_TYPES[cell][1]
+    edge_dof = {frozenset(pair): n_vertices + k for k, pair in enumerate(_EDGE_VERTICES[cell])}
     ring = _compat.COUNTER_CLOCKWISE[n_vertices]
     return np.array([d for a, b in zip(ring, ring[1:] + ring[:1]) for d in (a, edge_dof[frozenset((a, b))])])
 
 
-def _reference_nodes(n_vertices: int) -> np.ndarray:
-    """Reference coordinates (n_vertices + n_edges, 2) of a cell's vertices and edge midpoints."""
-    vertices = np.array(_REFERENCE_VERTICES[n_vertices])
-    return np.concatenate([vertices, [vertices[list(pair)].mean(axis=0) for pair in _EDGE_VERTICES[n_vertices]]])
+def _reference_nodes(cell: str) -> np.ndarray:
+    """Reference coordinates (n_vertices + n_edges, tdim) of a cell's vertices and edge midpoints."""
+    vertices = reference_vertices(cell)
+    return np.concatenate([vertices, [vertices[list(pair)].mean(axis=0) for pair in _EDGE_VERTICES[cell]]])
 
 
-def _gather_cells(mesh: dolfinx.mesh.Mesh, cell_tag: np.ndarray, comm: MPI.Comm
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The global mesh on every rank, from the owned cells of each rank.
-
-    Returns
-    -------
-    points : (n_points, 2)
-        The geometry nodes used by cells, ordered by input index.
-    cells : (n_cells, 3 or 4) int64
-        Indices into ``points``, counter-clockwise, ordered by input cell index.
-    tags : (n_cells,) int32
-    point_of_node : (n_local_geometry_nodes,) int64
-        Index in ``points`` of every local geometry node.
-    """
-    n_owned = _compat.num_owned_cells(mesh)
-    geometry = _compat.cell_geometry_nodes(mesh)
-    inp = _compat.input_node_index(mesh)
-    local = (_compat.original_cell_index(mesh)[:n_owned], inp[geometry[:n_owned]],
-             mesh.geometry.x[geometry[:n_owned], :2], cell_tag[:n_owned])
-    cell, nodes, x, tags = (np.concatenate(part) for part in zip(*comm.allgather(local)))
-    inputs, first, cells = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
-    n_vertices, order = geometry.shape[1], np.argsort(cell)
-    cells = cells.reshape(-1, n_vertices)[order][:, _compat.COUNTER_CLOCKWISE[n_vertices]]
-    return x.reshape(-1, 2)[first], cells.astype(np.int64), tags[order], np.searchsorted(inputs, inp)
+def _cell_type(mesh: dolfinx.mesh.Mesh) -> str:
+    return mesh.topology.cell_type.name
 
 
 def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | None
@@ -143,15 +124,16 @@ def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | N
 
 class LagrangeDiscretization(Discretization):
     """Degree-2 Lagrange FEM discretization of Σ_tag ∫ ψ_tag(F, ∇F) dΩ: P2 on a DOLFINx
-    triangle mesh, Q2 on a quadrilateral mesh.
+    triangle or tetrahedron mesh, Q2 on a quadrilateral or hexahedron mesh. The dimension d is
+    the mesh's (:attr:`gdim`): F = I_d + ∇u, d unknowns per node (``d * node + component``).
 
     Parameters
     ----------
     mesh
-        Affine triangle mesh, or quadrilateral mesh of parallelograms (any partition,
-        ghosted or not).
+        Affine triangle or tetrahedron mesh, or quadrilateral/hexahedron mesh of
+        parallelograms/parallelepipeds (any partition, ghosted or not).
     cell_tags
-        Region tag of every local cell (``dolfinx.mesh.meshtags`` of dimension 2).
+        Region tag of every local cell (``dolfinx.mesh.meshtags`` of the cells' dimension).
     materials
         Region tag -> energy.
     comm
@@ -163,14 +145,17 @@ class LagrangeDiscretization(Discretization):
     jump_penalty
         η of the C0 interior-penalty terms (:meth:`_jump_energy`) on the interior facets of
         every region whose energy has gradient terms; None (default): none, the broken
-        second gradient alone. In parallel the mesh must ghost its facet neighbours.
+        second gradient alone. In parallel the mesh must ghost its facet neighbours. 2D only.
+    region_names
+        Name -> tag of the regions, kept by the 3D :attr:`output_mesh`.
     """
 
     method = "fem"
 
     def __init__(self, mesh: dolfinx.mesh.Mesh, cell_tags, materials: typing.Mapping[int, Energy],
                  comm: MPI.Comm | None = None, *, quadrature_degree: int = QUADRATURE_DEGREE,
-                 mesh_size: float | None = None, jump_penalty: float | None = None):
+                 mesh_size: float | None = None, jump_penalty: float | None = None,
+                 region_names: typing.Mapping[str, int] | None = None):
         if jump_penalty is not None and not (np.isfinite(jump_penalty) and jump_penalty > 0.0):
             raise ValueError(f"jump_penalty must be a positive number, not {jump_penalty!r}")
         self.comm = comm if comm is not None else mesh.comm
@@ -178,14 +163,24 @@ class LagrangeDiscretization(Discretization):
         self.quadrature_degree = int(quadrature_degree)
         self.mesh_size = mesh_size
         self.jump_penalty = jump_penalty
-        n_local_cells = mesh.topology.index_map(2).size_local + mesh.topology.index_map(2).num_ghosts
+        tdim = mesh.topology.dim
+        self.gdim = mesh.geometry.dim
+        if self.gdim != tdim:
+            raise ValueError(f"a mesh of {tdim}D cells in {self.gdim}D space: the cells must fill the space")
+        if jump_penalty is not None and tdim != 2:
+            raise ValueError("jump_penalty is available in 2D only")
+        n_local_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
         self.cell_tag = np.full(n_local_cells, np.iinfo(np.int32).min, dtype=np.int64)
         self.cell_tag[cell_tags.indices] = cell_tags.values
-        points, cells, tags, point_of_node = _gather_cells(mesh, self.cell_tag, self.comm)
+        points, cells, tags, point_of_node = gather_cells(mesh, self.cell_tag, self.comm)
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
         check_materials(tags, materials)
-        self._output_mesh = PolygonMesh(points, cells, tags, insert_hanging_nodes=False)
+        if tdim == 2:
+            self._output_mesh = PolygonMesh(points, cells[:, _compat.COUNTER_CLOCKWISE[cells.shape[1]]], tags,
+                                            insert_hanging_nodes=False)
+        else:
+            self._output_mesh = CellMesh(points, cells, tags, _cell_type(mesh), region_names)
         self.materials = dict(sorted(materials.items()))
 
         self.V = _compat.vector_function_space(mesh, 2)
@@ -201,30 +196,40 @@ class LagrangeDiscretization(Discretization):
         """Coordinates, output point and partition-independent key of every local node.
 
         Key of a vertex node: its :attr:`output_mesh` point ``p``; of an edge node:
-        ``n_points + edge_key(a, b)`` (:func:`~dolfinx_sfvem.polygon_mesh.edge_key`, in
-        [0, n_points²)) for the edge's points ``a``, ``b``; of a Q2 cell-centre node:
-        ``n_points + n_points² + c`` for the input index ``c`` of its cell.
+        ``n + edge_key(a, b)`` (:func:`~dolfinx_sfvem.polygon_mesh.edge_key`, in [0, n²), n
+        the number of points) for the edge's points ``a``, ``b``; of a Q2 face-centre node of a
+        hexahedron: ``n + n² + edge_key(a, c)`` for the face's diagonal (a, c) through its
+        smallest point a; of a Q2 cell-centre node: ``n + n² + c`` (2D), ``n + 2 n² + c`` (3D)
+        for the input index ``c`` of its cell.
         """
         im = self.V.dofmap.index_map
         n_nodes = im.size_local + im.num_ghosts
         dofs = _compat.cell_dofs(self.V)
         vertex_point = point_of_node[_compat.cell_geometry_nodes(self.mesh)]
-        n, n_vertices = self._output_mesh.n_points, vertex_point.shape[1]
+        cell, tdim = _cell_type(self.mesh), self.mesh.topology.dim
+        n, n_vertices, n_edges = self._output_mesh.n_points, vertex_point.shape[1], len(_EDGE_VERTICES[cell])
         self.node_point = np.full(n_nodes, -1, dtype=np.int64)
         self.node_point[dofs[:, :n_vertices]] = vertex_point
         self.node_key = self.node_point.copy()
-        for k, (a, b) in enumerate(_EDGE_VERTICES[n_vertices]):
+        for k, (a, b) in enumerate(_EDGE_VERTICES[cell]):
             self.node_key[dofs[:, n_vertices + k]] = self.midpoint_keys(vertex_point[:, a], vertex_point[:, b])
-        if dofs.shape[1] > n_vertices + len(_EDGE_VERTICES[n_vertices]):     # Q2 cell centre
-            self.node_key[dofs[:, -1]] = n + n * n + _compat.original_cell_index(self.mesh)
-        self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :2].copy()
+        if cell == "hexahedron":                                          # Q2 face centres
+            for k, face in enumerate(reference_facets(cell)):
+                corners = vertex_point[:, face]                           # cyclic: corner j's diagonal is j + 2
+                j = np.argmin(corners, axis=1)
+                rows = np.arange(corners.shape[0])
+                self.node_key[dofs[:, n_vertices + n_edges + k]] = self.face_centre_keys(
+                    corners[rows, j], corners[rows, (j + 2) % 4])
+        if cell in ("quadrilateral", "hexahedron"):                       # Q2 cell centre
+            self.node_key[dofs[:, -1]] = n + (tdim - 1) * n * n + _compat.original_cell_index(self.mesh)
+        self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :self.gdim].copy()
         self.global_nodes = np.asarray(im.local_to_global(np.arange(n_nodes, dtype=np.int32)), dtype=np.int64)
 
     def _build_forms(self, cell_tags) -> None:
         """Π, its residual and tangent as compiled forms; det F at the quadrature points."""
         mesh, q = self.mesh, self.quadrature_degree
         u, v, du = self.u, ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
-        F = ufl.variable(ufl.Identity(2) + ufl.grad(u))
+        F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(u))
         G = ufl.grad(ufl.grad(u))
         self.dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags, metadata={"quadrature_degree": q})
         self._constants = {tag: {name: dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
@@ -243,19 +248,22 @@ class LagrangeDiscretization(Discretization):
         self._residual_form = _form(residual)
         self._tangent_form = _form(ufl.derivative(residual, u, du))
         points, _ = _compat.reference_quadrature(mesh, q)
-        n_vertices = _compat.cell_geometry_nodes(mesh).shape[1]
+        cell = _cell_type(mesh)
         self._n_quadrature_points = points.shape[0]
-        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, np.concatenate([points, _reference_nodes(n_vertices)]))
+        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, np.concatenate([points, _reference_nodes(cell)]))
         self._owned_cells = np.arange(_compat.num_owned_cells(mesh), dtype=np.int32)
-        # injectivity guard: boundary loop of every owned cell, solids also checked for crossings
-        dofs = _compat.cell_dofs(self.V)[:self._owned_cells.size]
-        loop = _boundary_loop(n_vertices)
-        self._loop = dofs[:, loop].astype(np.int64).ravel()
-        self._loop_offsets = np.arange(0, self._loop.size + 1, loop.size, dtype=np.int64)
         self._solid = np.isin(self.cell_tag[self._owned_cells],
                               [tag for tag, energy in self.materials.items() if not energy.is_medium])
         self._cell_input_index = _compat.original_cell_index(mesh)
-        self.element_loops = (self._loop_offsets, self._loop, self._cell_input_index[self._owned_cells].astype(np.int64))
+        self.element_loops = None
+        if mesh.topology.dim == 2:
+            # injectivity guard: boundary loop of every owned cell, solids also checked for crossings
+            dofs = _compat.cell_dofs(self.V)[:self._owned_cells.size]
+            loop = _boundary_loop(cell)
+            self._loop = dofs[:, loop].astype(np.int64).ravel()
+            self._loop_offsets = np.arange(0, self._loop.size + 1, loop.size, dtype=np.int64)
+            self.element_loops = (self._loop_offsets, self._loop,
+                                  self._cell_input_index[self._owned_cells].astype(np.int64))
         self._error_terms = None
         self._term_forms: dict[int, tuple] = {}       # the terms' own forms (:meth:`term_force`)
         self._stress_expressions = None                # F and P per region (:meth:`cell_stress`)
@@ -329,7 +337,7 @@ class LagrangeDiscretization(Discretization):
         index = next(k for k, (t, _) in enumerate(self._terms) if t is term)
         if index not in self._term_forms:
             unit = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0)) for name in term.params}
-            F = ufl.variable(ufl.Identity(2) + ufl.grad(self.u))
+            F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(self.u))
             energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self.dx(term.tag)
             self._term_forms[index] = (unit, _form(energy),
                                        _form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
@@ -394,9 +402,30 @@ class LagrangeDiscretization(Discretization):
                  f"{disc.quadrature_degree}", verbose, comm)
         return disc
 
+    @classmethod
+    def from_cell_mesh(cls, mesh: CellMesh, materials: typing.Mapping[int, Energy],
+                       comm: MPI.Comm = MPI.COMM_WORLD, *, quadrature_degree: int = QUADRATURE_DEGREE,
+                       verbose: bool = True) -> "LagrangeDiscretization":
+        """The degree-2 Lagrange discretization on the cells of ``mesh`` (P2 on simplices, Q2 on
+        parallelograms/parallelepipeds), distributed by DOLFINx's partitioner from rank 0's copy;
+        its :attr:`output_mesh` is ``mesh`` again (gathered back; the same points and cells)."""
+        cells, points = mesh.cells, mesh.points
+        if comm.rank != 0:
+            cells, points = np.empty((0, cells.shape[1]), np.int64), np.empty((0, mesh.gdim))
+        dmesh = _compat.create_mesh_partitioned(comm, cells, points, cell=mesh.cell_type)
+        cell_tags = _compat.create_cell_tags(dmesh, mesh.tags[_compat.original_cell_index(dmesh)])
+        x = mesh.points[mesh.cells]
+        h = float(np.linalg.norm(x[:, :, None] - x[:, None], axis=3).max()) if mesh.n_cells else 0.0
+        disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
+                   region_names=mesh.region_names)
+        kind = "P2" if mesh.cell_type in ("triangle", "tetrahedron") else "Q2"
+        say(log, f"{kind} FEM: {mesh.n_cells} {mesh.cell_type}s, {disc.num_dofs_global} unknowns on {comm.size} "
+                 f"rank(s), quadrature degree {disc.quadrature_degree}", verbose, comm)
+        return disc
+
     # ------------------------------------------------------------------ PETSc objects
     def create_vector(self) -> PETSc.Vec:
-        """A ghosted PETSc vector of the P2 unknowns (block size 2, local index 2 node + component)."""
+        """A ghosted PETSc vector of the P2 unknowns (block size d, local index d node + component)."""
         return _compat.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.index_map_bs)
 
     def create_matrix(self) -> PETSc.Mat:
@@ -422,13 +451,22 @@ class LagrangeDiscretization(Discretization):
         min_J, rank = self.comm.allreduce((local_min, self.comm.rank), op=MPI.MINLOC)
         where = (int(self._cell_input_index[cell]), int(self.cell_tag[cell])) if cell >= 0 else (-1, -1)
         polygon, tag = self.comm.bcast(where, root=rank)
-        with x.localForm() as xl:
-            folded, kinked = folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
-                                     self._owned_cells.astype(np.int64), self._solid)
+        folded, kinked = self._folded(x)
         folded |= self._solid & ~(J_nodes.min(axis=1, initial=np.inf) > 0.0)
         return AssemblyInfo(float(energy), float(min_J), polygon, tag,
                             *gather_count(self.comm, folded, self._cell_input_index[self._owned_cells]),
                             gather_count(self.comm, kinked, self._cell_input_index[self._owned_cells])[0])
+
+    def _folded(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Folded and kinked owned cells (:func:`~dolfinx_sfvem.injectivity.folded_elements`) from
+        their boundary loops in 2D; in 3D none (the guard there is J > 0 at the quadrature points
+        and at the nodes of the solids' cells, :meth:`residual`)."""
+        if self.element_loops is None:
+            none = np.zeros(self._owned_cells.size, dtype=bool)
+            return none, none
+        with x.localForm() as xl:
+            return folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
+                                   self._owned_cells.astype(np.int64), self._solid)
 
     def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
         """b = ∂Π_medium/∂u, the internal force of the third-medium regions alone, at x; without
@@ -458,10 +496,12 @@ class LagrangeDiscretization(Discretization):
         Parameters
         ----------
         f
-            Body force per unit reference area: ``f(x)`` with ``x`` of shape (2, n) returns (2, n).
+            Body force per unit reference area (volume in 3D): ``f(x)`` with ``x`` of shape (d, n)
+            returns (d, n).
         """
+        d = self.gdim
         f_h = dolfinx.fem.Function(self.V)
-        f_h.interpolate(lambda x: np.broadcast_to(np.asarray(f(x[:2]), dtype=np.float64), (2, x.shape[1])))
+        f_h.interpolate(lambda x: np.broadcast_to(np.asarray(f(x[:d]), dtype=np.float64), (d, x.shape[1])))
         b = self.create_vector()
         with b.localForm() as bl:
             bl.set(0.0)
@@ -470,18 +510,20 @@ class LagrangeDiscretization(Discretization):
         return b
 
     def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Points (n, 2) and weights (n,) of a rule of degree :data:`ERROR_QUADRATURE_DEGREE` on the
-        owned cells with u_h (n, 2) and ∇u_h (n, 2, 2) there: the fields of :meth:`error_norms`."""
+        """Points (n, d) and weights (n,) of a rule of degree :data:`ERROR_QUADRATURE_DEGREE` on the
+        owned cells with u_h (n, d) and ∇u_h (n, d, d) there: the fields of :meth:`error_norms`."""
+        d = self.gdim
         points, weights = _compat.reference_quadrature(self.mesh, ERROR_QUADRATURE_DEGREE)
         if self._error_terms is None:
             X = ufl.SpatialCoordinate(self.mesh)
-            terms = [X[0], X[1], self.u[0], self.u[1]] + [ufl.grad(self.u)[i, j] for i in (0, 1) for j in (0, 1)]
+            terms = [X[i] for i in range(d)] + [self.u[i] for i in range(d)]
+            terms += [ufl.grad(self.u)[i, j] for i in range(d) for j in range(d)]
             terms.append(abs(ufl.JacobianDeterminant(self.mesh)))
             self._error_terms = _compat.CompiledExpression(ufl.as_vector(terms), self.mesh, points)
         self._set_state(x)
-        values = self._error_terms(self._owned_cells).reshape(-1, 9)
-        w = np.tile(weights, self._owned_cells.size) * values[:, 8]
-        return values[:, :2], w, values[:, 2:4], values[:, 4:8].reshape(-1, 2, 2)
+        values = self._error_terms(self._owned_cells).reshape(-1, 2 * d + d * d + 1)
+        w = np.tile(weights, self._owned_cells.size) * values[:, -1]
+        return values[:, :d], w, values[:, d:2 * d], values[:, 2 * d:-1].reshape(-1, d, d)
 
     # ------------------------------------------------------------------ locating unknowns
     def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
@@ -490,7 +532,7 @@ class LagrangeDiscretization(Discretization):
         Parameters
         ----------
         marker
-            Function of node coordinates ``x`` (2, n) returning a bool array (n,).
+            Function of node coordinates ``x`` (d, n) returning a bool array (n,).
         tags
             Region tags: all nodes of the cells with these tags (also the nodes this rank holds
             only through cells of other ranks, so the selection is consistent across ranks).
@@ -503,7 +545,7 @@ class LagrangeDiscretization(Discretization):
         if tags is not None:
             cells = np.flatnonzero(np.isin(self.cell_tag, np.fromiter(tags, dtype=np.int64))).astype(np.int32)
             in_tags = np.zeros_like(selected)
-            in_tags[dolfinx.fem.locate_dofs_topological(self.V, 2, cells)] = True
+            in_tags[dolfinx.fem.locate_dofs_topological(self.V, self.mesh.topology.dim, cells)] = True
             selected &= in_tags
         return np.flatnonzero(selected)
 
@@ -518,26 +560,31 @@ class LagrangeDiscretization(Discretization):
 
     @property
     def num_dofs_global(self) -> int:
-        return 2 * self.V.dofmap.index_map.size_global
+        return self.gdim * self.V.dofmap.index_map.size_global
 
     def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """u_h at ``points`` (n, 2) inside this rank's owned cells: (values (n, 2), found (n,) bool);
+        """u_h at ``points`` (n, d) inside this rank's owned cells: (values (n, d), found (n,) bool);
         points elsewhere get zeros and False."""
-        local_of = np.full(self._output_mesh.n_polygons + 1, -1, dtype=np.int32)      # [-1]: outside
-        local_of[self._cell_input_index[self._owned_cells]] = self._owned_cells
-        local = local_of[self._output_mesh.locate(points)]
+        d = self.gdim
+        points = np.asarray(points, dtype=np.float64).reshape(-1, d)
+        if d == 2:
+            local_of = np.full(self._output_mesh.n_polygons + 1, -1, dtype=np.int32)      # [-1]: outside
+            local_of[self._cell_input_index[self._owned_cells]] = self._owned_cells
+            local = local_of[self._output_mesh.locate(points)]
+        else:
+            local = _compat.locate_cells(self.mesh, points, self._owned_cells.size)
         found = local >= 0
-        values = np.zeros((len(points), 2))
+        values = np.zeros((len(points), d))
         if found.any():
             self._set_state(x)
             xyz = np.zeros((int(found.sum()), 3))
-            xyz[:, :2] = np.asarray(points)[found]
+            xyz[:, :d] = points[found]
             values[found] = self.u.eval(xyz, local[found])
         return values, found
 
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
-        return np.asarray(value(self.x_nodes[dofs // 2].T), dtype=np.float64).reshape(-1)
+        return np.asarray(value(self.x_nodes[dofs // self.gdim].T), dtype=np.float64).reshape(-1)
 
     # ------------------------------------------------------------------ node keys
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -546,17 +593,24 @@ class LagrangeDiscretization(Discretization):
         n = self._output_mesh.n_points
         return n + edge_key(a, b, n)
 
+    def face_centre_keys(self, a: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Node keys of the Q2 centres of the quadrilateral faces with the diagonal between the
+        :attr:`output_mesh` points a and c (n,), a the face's smallest point."""
+        n = self._output_mesh.n_points
+        return n + n * n + edge_key(a, c, n)
+
     # ------------------------------------------------------------------ output
     @property
-    def output_mesh(self) -> PolygonMesh:
-        """The cells as a polygon mesh (identical on all ranks), for pictures."""
+    def output_mesh(self) -> PolygonMesh | CellMesh:
+        """The cells (identical on all ranks), for pictures and the contact checks: a polygon mesh
+        in 2D, a :class:`~dolfinx_sfvem.cell_mesh.CellMesh` in 3D."""
         return self._output_mesh
 
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
-        """(point indices of ``output_mesh``, displacements (k, 2)) of the vertex nodes on this rank."""
+        """(point indices of ``output_mesh``, displacements (k, d)) of the vertex nodes on this rank."""
         vertex = np.flatnonzero(self.node_point >= 0)
         with x.localForm() as xl:
-            return self.node_point[vertex], xl.array_r.reshape(-1, 2)[vertex].copy()
+            return self.node_point[vertex], xl.array_r.reshape(-1, self.gdim)[vertex].copy()
 
     def output_function(self, x: PETSc.Vec, u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
         """The solution as a P2 :class:`dolfinx.fem.Function` (ghost values of x must be current)."""
@@ -575,26 +629,27 @@ class LagrangeDiscretization(Discretization):
 
     def cell_stress(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
         """F and P = ∂ψ/∂F of every owned cell's region at the cell's centre."""
+        d = self.gdim
         if self._stress_expressions is None:
-            n_vertices = _compat.cell_geometry_nodes(self.mesh).shape[1]
-            centre = np.array(_REFERENCE_VERTICES[n_vertices]).mean(axis=0, keepdims=True)
-            F = ufl.variable(ufl.Identity(2) + ufl.grad(self.u))
+            centre = reference_vertices(_cell_type(self.mesh)).mean(axis=0, keepdims=True)
+            F = ufl.variable(ufl.Identity(d) + ufl.grad(self.u))
             G = ufl.grad(ufl.grad(self.u))
             self._stress_expressions = {
-                tag: _compat.CompiledExpression(ufl.as_vector([F[i, j] for i in (0, 1) for j in (0, 1)] + [
-                    P[i, j] for P in [ufl.diff(energy.psi(F, G, self._constants[tag]), F)] for i in (0, 1)
-                    for j in (0, 1)]), self.mesh, centre)
+                tag: _compat.CompiledExpression(ufl.as_vector([F[i, j] for i in range(d) for j in range(d)] + [
+                    P[i, j] for P in [ufl.diff(energy.psi(F, G, self._constants[tag]), F)] for i in range(d)
+                    for j in range(d)]), self.mesh, centre)
                 for tag, energy in self.materials.items()}
         self._set_state(x)
-        F, P = np.zeros((self._owned_cells.size, 2, 2)), np.zeros((self._owned_cells.size, 2, 2))
+        F, P = np.zeros((self._owned_cells.size, d, d)), np.zeros((self._owned_cells.size, d, d))
         for tag, expression in self._stress_expressions.items():
             cells = self._owned_cells[self.cell_tag[self._owned_cells] == tag]
-            values = expression(cells).reshape(-1, 8)
-            F[cells], P[cells] = values[:, :4].reshape(-1, 2, 2), values[:, 4:].reshape(-1, 2, 2)
+            values = expression(cells).reshape(-1, 2 * d * d)
+            F[cells], P[cells] = values[:, :d * d].reshape(-1, d, d), values[:, d * d:].reshape(-1, d, d)
         return F, P
 
     def describe(self) -> dict:
         """Mesh facts for summary.json."""
-        return {"cells": int(self._output_mesh.n_polygons), "cell_type": self.mesh.topology.cell_type.name,
+        n_cells = self._output_mesh.n_polygons if self.gdim == 2 else self._output_mesh.n_cells
+        return {"cells": int(n_cells), "cell_type": self.mesh.topology.cell_type.name,
                 "quadrature_degree": self.quadrature_degree,
                 "mesh_size": self.mesh_size, "jump_penalty": self.jump_penalty}

@@ -327,7 +327,7 @@ class LoadPath:
         converged = (p.load >= self.until - 1e-12 or self.control.finished) and not message
         summary = self.summary(self.records, wall, converged, message)
         if writer is not None:
-            writer.finish(summary, p.point_displacements(), p.contact_pressure())
+            writer.finish(summary, p.point_displacements(), p.contact_pressure(), p.boundary)
         if message:
             say(log, f"run stopped: {message}", True, p.comm)
         return Result(converged, p.load, [r for r in self.records if r["converged"]], self.records, wall, summary,

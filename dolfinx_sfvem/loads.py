@@ -86,8 +86,8 @@ class BoundLoad(abc.ABC):
         (n_local_dofs,)) lack (collective)."""
 
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
-        """f += the load's nodal forces at λ = 1, at the local displacements u (n_local_nodes, 2)
-        (None: the reference state), into the local array f (n_local_nodes, 2); only what this
+        """f += the load's nodal forces at λ = 1, at the local displacements u (n_local_nodes, d)
+        (None: the reference state), into the local array f (n_local_nodes, d); only what this
         rank owns (ghost entries are accumulated by the caller)."""
 
     def add_stiffness(self, u: np.ndarray, A: PETSc.Mat, scale: float) -> None:
@@ -305,12 +305,12 @@ class Load(abc.ABC):
 
 @dataclass(frozen=True)
 class BodyForce(Load):
-    """Body force per unit reference area, ``f(x)`` (2, n) -> (2, n) (the b of Eq. 1)."""
+    """Body force per unit reference area (volume in 3D), ``f(x)`` (d, n) -> (d, n) (the b of Eq. 1)."""
     f: typing.Callable[[np.ndarray], np.ndarray]
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
         vector = disc.body_force_vector(self.f)
-        total = np.array([vector.getArray(readonly=True)[c::2].sum() for c in (0, 1)])
+        total = np.array([vector.getArray(readonly=True)[c::disc.gdim].sum() for c in range(disc.gdim)])
         resultant = float(np.linalg.norm(disc.comm.allreduce(total, op=MPI.SUM)))
         return VectorLoad(self.name, disc, vector, resultant)
 
@@ -350,9 +350,9 @@ class Pressure(Load):
 
 @dataclass(frozen=True)
 class PointForce(Load):
-    """Force ``f`` (2,) at the mesh node at ``point`` (a polygon vertex or edge midpoint)."""
-    point: tuple[float, float]
-    f: tuple[float, float]
+    """Force ``f`` (d,) at the mesh node at ``point`` (a polygon vertex or edge midpoint; in 3D any node)."""
+    point: tuple[float, ...]
+    f: tuple[float, ...]
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
         node = point_node(disc, self.point, self.name)
@@ -360,7 +360,7 @@ class PointForce(Load):
         vector.set(0.0)
         values = vector.getArray()        # on every rank: PETSc's cached norms then change on all alike
         if node is not None and node < disc.n_owned_nodes:
-            values[2 * node:2 * node + 2] = self.f
+            values[disc.gdim * node:disc.gdim * (node + 1)] = self.f
         return VectorLoad(self.name, disc, vector, float(np.linalg.norm(self.f)))
 
     def describe(self) -> dict[str, typing.Any]:
@@ -439,6 +439,8 @@ def point_node(disc: Discretization, point: typing.Sequence[float], name: str) -
     ValueError
         If ``point`` is not a polygon vertex or edge midpoint of the mesh, naming the nearest one.
     """
+    if disc.gdim == 3:
+        return _nearest_node(disc, point, name)
     mesh = disc.output_mesh
     sides = mesh.sides
     candidates = np.concatenate([mesh.points, 0.5 * (mesh.points[sides.start] + mesh.points[sides.end])])
@@ -456,3 +458,18 @@ def point_node(disc: Discretization, point: typing.Sequence[float], name: str) -
         key = int(disc.midpoint_keys(sides.start[side], sides.end[side])[0])
     nodes = np.flatnonzero(disc.node_key == key)
     return int(nodes[0]) if nodes.size else None
+
+
+def _nearest_node(disc: Discretization, point: typing.Sequence[float], name: str) -> int | None:
+    """:func:`point_node` among the nodes of a discretization (3D: any degree-2 node)."""
+    point = np.asarray(point, dtype=np.float64)
+    distance = np.linalg.norm(disc.x_nodes - point, axis=1)
+    local = int(np.argmin(distance)) if distance.size else -1
+    nearest, rank = disc.comm.allreduce((float(distance[local]) if local >= 0 else np.inf, disc.comm.rank),
+                                        op=MPI.MINLOC)
+    scale = float(np.ptp(disc.output_mesh.points, axis=0).max())
+    if nearest > 1e-9 * scale:
+        x = disc.comm.bcast(disc.x_nodes[local] if disc.comm.rank == rank else None, root=rank)
+        raise ValueError(f"point force {name!r}: {tuple(point.tolist())} is not a node of the mesh; the nearest node "
+                         f"is ({', '.join(f'{c:.10g}' for c in x)}), {nearest:.3g} away")
+    return local if distance.size and distance[local] <= 1e-9 * scale else None

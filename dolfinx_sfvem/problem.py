@@ -31,7 +31,8 @@ from petsc4py import PETSc
 
 from . import post
 from .adaptivity import Adaptivity
-from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary
+from .cell_mesh import CellMesh
+from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
 from .energy import Energy
 from .equilibrium import Equilibrium
 from .linear_solvers import linear_solver_options
@@ -53,8 +54,8 @@ Where = typing.Union[Marker, int, str, typing.Iterable[typing.Union[int, str]]]
 class BoundaryCondition:
     """Prescribed displacement components on the nodes selected by ``marker`` and/or ``tags``.
 
-    ``values`` maps component (0 = x, 1 = y) to the value reached at load factor 1: a number
-    or a function of the coordinates ``x`` (2, n) returning (n,); it is applied as
+    ``values`` maps component (0 = x, 1 = y, 2 = z) to the value reached at load factor 1: a
+    number or a function of the coordinates ``x`` (d, n) returning (n,); it is applied as
     ``load_factor * value``. At interior (mean) DOFs a function is averaged over the polygon.
     """
     name: str
@@ -80,15 +81,39 @@ class BoundaryValues(typing.NamedTuple):
     dofs_of: dict[str, np.ndarray]
 
 
-def _component(c: int | str, name: str) -> int:
-    """0 or 1 from 0 / 1 / "x" / "y"."""
-    index = {0: 0, 1: 1, "x": 0, "y": 1}.get(c) if isinstance(c, (int, str, np.integer)) else None
+#: the names of the displacement components
+AXES = "xyz"
+
+
+def _component(c: int | str, name: str, gdim: int = 2) -> int:
+    """0, 1 (or 2 in 3D) from 0 / 1 / 2 / "x" / "y" / "z"."""
+    names = {**{k: k for k in range(gdim)}, **{AXES[k]: k for k in range(gdim)}}
+    index = names.get(c) if isinstance(c, (int, str, np.integer)) else None
     if index is None or isinstance(c, bool):
-        raise ValueError(f"boundary condition {name!r}: component {c!r}; use 0 or 'x', 1 or 'y'")
+        known = ", ".join(f"{k} or {AXES[k]!r}" for k in range(gdim))
+        raise ValueError(f"boundary condition {name!r}: component {c!r}; use {known}")
     return index
 
 
-def _materials_by_tag(mesh: PolygonMesh, materials: typing.Mapping[int | str, Energy]) -> dict[int, Energy]:
+def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh:
+    """The problem's mesh from what the user gives: a :class:`PolygonMesh`, a 3D :class:`CellMesh`,
+    a 2D :class:`CellMesh` (turned into the polygon mesh of its cells) or a pair ``(dolfinx mesh,
+    cell tags)`` (gathered into a :class:`CellMesh` on every rank, collective)."""
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        mesh = CellMesh.from_dolfinx(*mesh)
+    if isinstance(mesh, CellMesh) and mesh.tdim == 2:
+        from ._compat import COUNTER_CLOCKWISE
+        polygons = PolygonMesh(mesh.points, mesh.cells[:, COUNTER_CLOCKWISE[mesh.cells.shape[1]]], mesh.tags,
+                               insert_hanging_nodes=False)
+        polygons.region_names.update(mesh.region_names)
+        return polygons
+    if not isinstance(mesh, (PolygonMesh, CellMesh)):
+        raise ValueError(f"mesh: give a PolygonMesh, a CellMesh or a pair (dolfinx mesh, cell tags), not "
+                         f"{type(mesh).__name__}")
+    return mesh
+
+
+def _materials_by_tag(mesh: PolygonMesh | CellMesh, materials: typing.Mapping[int | str, Energy]) -> dict[int, Energy]:
     """Materials keyed by region tag; names are looked up in ``mesh.region_names``."""
     out: dict[int, Energy] = {}
     for key, energy in materials.items():
@@ -105,17 +130,21 @@ def _materials_by_tag(mesh: PolygonMesh, materials: typing.Mapping[int | str, En
 
 
 class ContactProblem:
-    """Finite-strain (third medium) contact problem on a polygon mesh.
+    """Finite-strain (third medium) contact problem on a polygon mesh (2D) or a mesh of
+    tetrahedra or hexahedra (3D): the dimension is the mesh's.
 
     Parameters
     ----------
     mesh
-        Polygon mesh with region tags.
+        Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.cell_mesh.CellMesh`; or a pair
+        ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (affine) and
+        its region tags (:func:`as_mesh`). 3D meshes take ``method="fem"`` only.
     materials
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
     method
         ``"vem"`` (order-2 SFVEM on the polygons) or ``"fem"`` (P2 Lagrange triangles on the
-        same geometry and regions, :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`).
+        same geometry and regions, :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`; in 3D P2
+        on tetrahedra, Q2 on hexahedra, the cells of the mesh).
     comm
         MPI communicator.
     overlap_tolerance
@@ -142,7 +171,9 @@ class ContactProblem:
 
     Attributes
     ----------
-    mesh : PolygonMesh
+    mesh : PolygonMesh or CellMesh
+    gdim : int
+        The dimension d: 2 or 3.
     disc : Discretization
         The discretization of the current mesh.
     x : PETSc.Vec
@@ -157,7 +188,8 @@ class ContactProblem:
         Anything to be kept in summary.json's "parameters" (the demos put their options here).
     """
 
-    def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], method: str = "vem",
+    def __init__(self, mesh: PolygonMesh | CellMesh | tuple, materials: typing.Mapping[int, Energy],
+                 method: str = "vem",
                  comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE,
                  petsc_options: typing.Mapping[str, typing.Any] | None = None,
                  petsc_options_prefix: str = DEFAULT_PREFIX, linear_solver: str = "direct", **options):
@@ -166,6 +198,11 @@ class ContactProblem:
         if not (isinstance(petsc_options_prefix, str) and petsc_options_prefix and not petsc_options_prefix.startswith("-")):
             raise ValueError(f"petsc_options_prefix must be a non-empty string without a leading '-', "
                              f"got {petsc_options_prefix!r}")
+        mesh = as_mesh(mesh)
+        self.gdim = mesh.gdim if isinstance(mesh, CellMesh) else 2
+        if self.gdim == 3 and method == "vem":
+            raise ValueError("method='vem': the SFVEM on polyhedra is not available yet; use method='fem' "
+                             "(P2 tetrahedra, Q2 hexahedra) for a 3D mesh")
         self.method = method
         self.comm = comm
         self.verbose = options.get("verbose", True)
@@ -190,12 +227,20 @@ class ContactProblem:
         if self.method == "vem":
             from .vem import SFVEMDiscretization
             self.disc = SFVEMDiscretization(mesh, self.materials, self.comm, **options)
+        elif isinstance(mesh, CellMesh):
+            from .fem import LagrangeDiscretization
+            unknown = sorted(set(options) - {"verbose", "quadrature_degree"})
+            if unknown:
+                raise ValueError(f"option(s) {', '.join(unknown)} not available on a 3D mesh (its cells are the "
+                                 "FEM's cells); give verbose and quadrature_degree only")
+            self.disc = LagrangeDiscretization.from_cell_mesh(mesh, self.materials, self.comm, **options)
         else:
             from .fem import LagrangeDiscretization
             self.disc = LagrangeDiscretization.from_polygon_mesh(mesh, self.materials, self.comm, **options)
-        self.boundary = SolidBoundary(self.disc.output_mesh,
-                                      [tag for tag, energy in self.materials.items() if not energy.is_medium],
-                                      self.disc.midpoint_keys, self._options["overlap_tolerance"])
+        self.boundary = solid_boundary(self.disc.output_mesh,
+                                       [tag for tag, energy in self.materials.items() if not energy.is_medium],
+                                       self.disc.midpoint_keys, self._options["overlap_tolerance"],
+                                       face_centre_keys=getattr(self.disc, "face_centre_keys", None))
         self.x = self.disc.create_vector()
         self.x.set(0.0)
         self._bound: list[tuple[Load, BoundLoad]] = []     # the loads bound to this discretization
@@ -208,20 +253,26 @@ class ContactProblem:
 
     # ------------------------------------------------------------------ boundary conditions
     def fix(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
-            components: typing.Iterable[int | str] = (0, 1), name: str = "fixed") -> BoundaryCondition:
-        """u_i = 0 for the given components (0 or "x", 1 or "y") on the selected nodes."""
-        return self._add(BoundaryCondition(name, {_component(c, name): 0.0 for c in components}, marker,
+            components: typing.Iterable[int | str] | str | None = None, name: str = "fixed") -> BoundaryCondition:
+        """u_i = 0 for the given components (0 or "x", 1 or "y", 2 or "z"; a string such as
+        ``"xz"`` names several; None: all) on the selected nodes."""
+        components = range(self.gdim) if components is None else components
+        return self._add(BoundaryCondition(name, {_component(c, name, self.gdim): 0.0 for c in components}, marker,
                                            None if tags is None else tuple(tags)))
 
     def prescribe(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None, *,
-                  ux: Value | None = None, uy: Value | None = None, name: str = "load") -> BoundaryCondition:
-        """u_x = λ ux and/or u_y = λ uy on the selected nodes, λ the load factor.
+                  ux: Value | None = None, uy: Value | None = None, uz: Value | None = None,
+                  name: str = "load") -> BoundaryCondition:
+        """u_x = λ ux, u_y = λ uy and/or u_z = λ uz (3D) on the selected nodes, λ the load factor.
 
-        ``ux``/``uy`` are numbers or functions of the coordinates ``x`` (2, n) returning (n,).
+        ``ux``/``uy``/``uz`` are numbers or functions of the coordinates ``x`` (d, n) returning (n,).
         """
-        values = {c: v if callable(v) else float(v) for c, v in ((0, ux), (1, uy)) if v is not None}
+        if uz is not None and self.gdim < 3:
+            raise ValueError(f"boundary condition {name!r}: uz on a 2D mesh")
+        values = {c: v if callable(v) else float(v) for c, v in ((0, ux), (1, uy), (2, uz)) if v is not None}
         if not values:
-            raise ValueError(f"boundary condition {name!r}: give ux and/or uy")
+            raise ValueError(f"boundary condition {name!r}: give " + ("ux and/or uy" if self.gdim == 2 else
+                                                                        "ux, uy and/or uz"))
         if not all(callable(v) or np.isfinite(v) for v in values.values()):
             raise ValueError(f"boundary condition {name!r}: prescribed values must be finite, got {values}")
         return self._add(BoundaryCondition(name, values, marker, None if tags is None else tuple(tags)))
@@ -271,21 +322,21 @@ class ContactProblem:
         if clash.any():
             i = int(np.argmax(clash))
             where = (self.bcs[by[dofs[i]]].name, tuple(self.disc.dof_coordinates(dofs[i:i + 1])[0]),
-                     "xy"[dofs[i] % 2], float(final[dofs[i]]), float(values[i]))
+                     AXES[dofs[i] % self.gdim], float(final[dofs[i]]), float(values[i]))
         found = [w for w in self.comm.allgather(where) if w is not None]
         if found:
             other, x, comp, a, b = found[0]
             raise ValueError(f"boundary conditions {other!r} and {self.bcs[k].name!r} prescribe different u_{comp} "
-                             f"({a:g} and {b:g}) at the node ({x[0]:g}, {x[1]:g}); equal values on shared nodes "
+                             f"({a:g} and {b:g}) at the node ({', '.join(f'{c:g}' for c in x)}); equal values on shared nodes "
                              "are allowed")
 
-    def set_displacement(self, ux: Value = 0.0, uy: Value = 0.0) -> None:
-        """Set the current state (e.g. an initial guess or a pre-deformation): ``ux``/``uy`` are
-        numbers or functions of the coordinates ``x`` (2, n) returning (n,)."""
+    def set_displacement(self, ux: Value = 0.0, uy: Value = 0.0, uz: Value = 0.0) -> None:
+        """Set the current state (e.g. an initial guess or a pre-deformation): ``ux``/``uy``/``uz``
+        (3D) are numbers or functions of the coordinates ``x`` (d, n) returning (n,)."""
         all_dofs = np.arange(self.disc.n_local_dofs)
         with self.x.localForm() as xl:
-            for comp, value in ((0, ux), (1, uy)):
-                dofs = all_dofs[comp::2]
+            for comp, value in list(enumerate((ux, uy, uz)))[:self.gdim]:
+                dofs = all_dofs[comp::self.gdim]
                 xl.array[dofs] = self.disc.dof_values(value, dofs) if callable(value) else float(value)
 
     # ------------------------------------------------------------------ loads
@@ -298,7 +349,7 @@ class ContactProblem:
         boundary edges of ``where``: a marker function of the coordinates (2, n) -> (n,) bool
         (the edges whose vertices and midpoint it selects) or region tags/names (the boundary
         edges of those regions). Paper Eq. 1, the t̄ term."""
-        t = self._finite_pair(t, name, "t")
+        t = self._finite_vector(t, name, "t")
         return self._add_load(Traction(name, self._where(where, name), t))
 
     def pressure(self, where: Where, p: float, follower: bool = True, name: str = "pressure") -> Pressure:
@@ -309,12 +360,15 @@ class ContactProblem:
         medium and use :meth:`cavity_pressure` (docs/guide/loads.md says when to use which)."""
         return self._add_load(Pressure(name, self._where(where, name), self._finite(p, name, "p"), bool(follower)))
 
-    def point_force(self, point: typing.Sequence[float], fx: float = 0.0, fy: float = 0.0,
+    def point_force(self, point: typing.Sequence[float], fx: float = 0.0, fy: float = 0.0, fz: float = 0.0,
                     name: str = "force") -> PointForce:
-        """Force λ (fx, fy) at the mesh node at ``point`` (a polygon vertex or an edge midpoint of
-        the mesh; an error names the nearest node otherwise)."""
-        point = self._finite_pair(point, name, "point")
-        return self._add_load(PointForce(name, point, (self._finite(fx, name, "fx"), self._finite(fy, name, "fy"))))
+        """Force λ (fx, fy) (λ (fx, fy, fz) in 3D) at the mesh node at ``point`` (a polygon vertex or
+        an edge midpoint of the mesh, in 3D any node; an error names the nearest node otherwise)."""
+        point = self._finite_vector(point, name, "point")
+        if self.gdim == 2 and fz != 0.0:
+            raise ValueError(f"load {name!r}: fz on a 2D mesh")
+        f = tuple(self._finite(v, name, what) for v, what in zip((fx, fy, fz), ("fx", "fy", "fz")))[:self.gdim]
+        return self._add_load(PointForce(name, point, f))
 
     def cavity_pressure(self, region: int | str, p: float, name: str = "cavity") -> CavityPressure:
         """Pressure λ p of a gas in a closed cavity that the third-medium region ``region`` (tag
@@ -344,10 +398,11 @@ class ContactProblem:
             raise ValueError(f"load {name!r}: {what} must be finite, got {value}")
         return value
 
-    def _finite_pair(self, values: typing.Any, name: str, what: str) -> tuple[float, float]:
+    def _finite_vector(self, values: typing.Any, name: str, what: str) -> tuple[float, ...]:
         values = tuple(values) if isinstance(values, (list, tuple, np.ndarray)) else (values,)
-        if len(values) != 2:
-            raise ValueError(f"load {name!r}: {what} must be a pair (x, y), got {values!r}")
+        if len(values) != self.gdim:
+            shape = "a pair (x, y)" if self.gdim == 2 else "a triple (x, y, z)"
+            raise ValueError(f"load {name!r}: {what} must be {shape}, got {values!r}")
         return tuple(self._finite(v, name, what) for v in values)
 
     def _region_tags(self, regions: int | str | typing.Iterable[int | str], name: str) -> tuple[int, ...]:
@@ -382,7 +437,7 @@ class ContactProblem:
     # ------------------------------------------------------------------ results
     def reactions(self, force: PETSc.Vec | None = None,
                   dofs_of: typing.Mapping[str, np.ndarray] | None = None) -> dict[str, list[float]]:
-        """Reaction force [R_x, R_y] on every boundary condition at the current state and load
+        """Reaction force [R_x, R_y] ([R_x, R_y, R_z] in 3D) on every boundary condition at the current state and load
         factor: the sum over its unknowns of internal minus external force (collective).
 
         ``force`` and ``dofs_of`` are for the load path, which has both at hand (the Newton
@@ -403,7 +458,8 @@ class ContactProblem:
             out = {}
             for name, dofs in dofs_of.items():
                 own = dofs[dofs < n_owned]
-                out[name] = [self.comm.allreduce(float(r[own[own % 2 == c]].sum()), op=MPI.SUM) for c in (0, 1)]
+                out[name] = [self.comm.allreduce(float(r[own[own % self.gdim == c]].sum()), op=MPI.SUM)
+                             for c in range(self.gdim)]
         if force is None:
             b.destroy()
         return out
@@ -431,7 +487,7 @@ class ContactProblem:
     def max_displacement(self) -> float:
         """Largest nodal displacement magnitude ``max |u|`` over all ranks (collective)."""
         with self.x.localForm() as xl:
-            u = xl.array_r.reshape(-1, 2)[:self.disc.n_owned_dofs // 2]
+            u = xl.array_r.reshape(-1, self.gdim)[:self.disc.n_owned_nodes]
             local = float(np.sqrt((u ** 2).sum(axis=1)).max(initial=0.0))
         return self.comm.allreduce(local, op=MPI.MAX)
 
@@ -460,18 +516,18 @@ class ContactProblem:
                                root=0)
 
     def displacement_at(self, points: npt.ArrayLike) -> np.ndarray:
-        """Displacement (n, 2) at reference ``points`` (n, 2) on every rank (collective): the SFVEM's
+        """Displacement (n, d) at reference ``points`` (n, d) on every rank (collective): the SFVEM's
         Π^∇_2 u of the polygon holding the point (Eq. 36), the FEM's u_h; NaN outside the mesh.
         With :meth:`PolygonMesh.boundary_points` it gives displacements along a boundary, curved
         ones included (their vertices and edge midpoints are the nodes)."""
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        points = np.asarray(points, dtype=np.float64).reshape(-1, self.gdim)
         values, found = self.disc.displacement_at(self.x, points)
         count = self.comm.allreduce(found.astype(np.int64), op=MPI.SUM)
         total = self.comm.allreduce(values, op=MPI.SUM)
         return np.where(count[:, None] > 0, total / np.maximum(count, 1)[:, None], np.nan)
 
     def point_displacements(self) -> np.ndarray | None:
-        """Displacement (n_points, 2) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
+        """Displacement (n_points, d) of every point of ``disc.output_mesh``, on rank 0 (None elsewhere)."""
         indices, values = self.disc.output_point_displacements(self.x)
         return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
 
@@ -508,9 +564,9 @@ class ContactProblem:
         self.rebuild(refinement.mesh, transfer_state(refinement, self.gathered_state()))
 
     def gathered_state(self) -> np.ndarray:
-        """The state (n_nodes, 2) by node key, on every rank (collective)."""
+        """The state (n_nodes, d) by node key, on every rank (collective)."""
         keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
-        state = np.full((int(keys.max()) + 1, 2), np.nan)
+        state = np.full((int(keys.max()) + 1, self.gdim), np.nan)
         state[keys] = values
         return state
 

@@ -223,7 +223,7 @@ class RunWriter:
         due = [t for t in self.pressure_at if load >= t - LOAD_TOL]
         if due:
             self.pressure_at = self.pressure_at[len(due):]
-            if self.comm.rank == 0:
+            if self.comm.rank == 0 and self.disc.gdim == 2:
                 post.plot_contact_pressure(self.out / f"contact_pressure_{load:.4g}.png", pressure,
                                            title=f"{method}: contact pressure at load factor {load:.4g}")
         self.u_p2 = self.disc.output_function(self.x, self.u_p2)
@@ -247,18 +247,33 @@ class RunWriter:
         order = np.argsort(keys)
         return keys[order], np.concatenate([v for _, v in pieces])[order]
 
-    def finish(self, summary: dict, u: np.ndarray | None, pressure: ContactPressure) -> None:
+    def finish(self, summary: dict, u: np.ndarray | None, pressure: ContactPressure, surface=None) -> None:
         """Write the final summary.json and load_path.csv and the pictures of the last state
         (``u`` the displacements of the output mesh's points on rank 0, ``pressure`` the contact
-        pressure)."""
+        pressure, at the nodes of ``surface``, the problem's contact checks)."""
         if self.comm.rank == 0:
             method = self.disc.method
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
             load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
+            if self.disc.gdim == 3:
+                self._pictures_3d(u, pressure, surface)
+                return
             post.plot_deformed_polygons(self.out / "deformed.png", self.disc.output_mesh, u,
                                         title=f"{method}: load factor {load:.3g}")
             post.plot_deformed_polygons(self.out / "uy.png", self.disc.output_mesh, u, node_values=u[:, 1],
                                         title="u_y")
             post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
                                        title=f"{method}: contact pressure at load factor {load:.3g}")
+
+    def _pictures_3d(self, u: np.ndarray, pressure: ContactPressure, surface) -> None:
+        """The pictures of the last state of a 3D run (rank 0): ``pictures3d.write_pictures_3d`` of
+        the deformed solids, a clip and the contact pressure, when that module is installed."""
+        try:
+            from .pictures3d import write_pictures_3d
+        except ImportError:
+            return
+        solids = [tag for tag in np.unique(self.disc.output_mesh.tags).tolist() if not self.disc.materials[tag].is_medium]
+        checked = pressure.pressure.size > 0
+        write_pictures_3d(self.out, "final", self.disc.output_mesh, u, solids, surface=surface if checked else None,
+                          pressure=pressure.pressure if checked else None)

@@ -68,6 +68,7 @@ class SFVEMDiscretization(Discretization):
     """
 
     method = "vem"
+    gdim = 2
 
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
                  *, l=None, l_min: int = 3, quadrature_degree: int | None = None, quadrature: str = "compressed",

@@ -485,3 +485,41 @@ for _helper in (square_with_hanging_nodes, Quadratic, as_csr, build_one, polygon
                 shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh,
                 hanging_mesh, glue):
     globals()[f"{_helper.__name__}_fixture"] = shared(_helper)
+
+
+# =========================================================================== tiny 3D meshes
+class Tiny3D:
+    """Tiny 3D meshes with exact answers (test_cell_mesh, test_fem3d, test_problem3d, test_loads3d)."""
+
+    #: the unit cube's corners in DOLFINx's hexahedron order (x fastest)
+    CUBE = np.array([(x, y, z) for z in (0.0, 1.0) for y in (0.0, 1.0) for x in (0.0, 1.0)])
+
+    @staticmethod
+    def kuhn_tets() -> np.ndarray:
+        """The unit cube as 6 tetrahedra around its diagonal (0,0,0)-(1,1,1) (3 of them
+        left-handed), indices into :attr:`CUBE`."""
+        import itertools
+        tets = []
+        for perm in itertools.permutations(range(3)):
+            path = [np.zeros(3)]
+            for axis in perm:
+                path.append(path[-1] + np.eye(3)[axis])
+            tets.append([int(np.flatnonzero((Tiny3D.CUBE == p).all(axis=1))[0]) for p in path])
+        return np.array(tets)
+
+    @staticmethod
+    def hex_grid(n, lengths=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+        """(points, cells) of n[0] x n[1] x n[2] hexahedra (n an int: n x n x n) of the box
+        [0, lengths], DOLFINx's vertex order."""
+        n = (n, n, n) if np.isscalar(n) else tuple(n)
+        axes = [np.linspace(0.0, length, k + 1) for length, k in zip(lengths, n)]
+        points = np.array([(x, y, z) for z in axes[2] for y in axes[1] for x in axes[0]])
+
+        def index(i, j, k):
+            return (k * (n[1] + 1) + j) * (n[0] + 1) + i
+        cells = [[index(i + a, j + b, k + c) for c in (0, 1) for b in (0, 1) for a in (0, 1)]
+                 for k in range(n[2]) for j in range(n[1]) for i in range(n[0])]
+        return points, np.array(cells)
+
+
+tiny3d_fixture = shared(Tiny3D, "tiny3d")
