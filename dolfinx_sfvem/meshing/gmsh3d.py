@@ -25,6 +25,9 @@ VolumeBuilder = Callable[[object], Mapping[int, Sequence[int]]]
 #: gmsh's corner order of a hexahedron -> DOLFINx's tensor-product order
 GMSH_TO_DOLFINX_HEXAHEDRON = np.array([0, 1, 3, 2, 4, 5, 7, 6])
 
+#: relative size (times the mesh's extent) of the coordinates :func:`gmsh_tetrahedra` rounds to zero
+ROUND_OFF = 1e-12
+
 _CELL_TYPES = {4: "tetrahedron", 8: "hexahedron"}
 
 
@@ -107,7 +110,9 @@ def _read_model(gmsh, region_tags: Mapping[str, int] | None) -> CellMesh:
 def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
                     keep_gmsh: str | os.PathLike | None = None) -> CellMesh:
     """Tetrahedra of the geometry ``build`` makes (:data:`VolumeBuilder`), meshed by gmsh's 3D
-    Delaunay in one thread (the same mesh on every rank and every run).
+    Delaunay in one thread (the same mesh on every rank and every run). Coordinates within
+    :data:`ROUND_OFF` x the mesh size of zero are set to zero (gmsh leaves ~1e-16 on the planes
+    x = 0, y = 0, z = 0, where symmetry conditions go).
 
     ``names`` (region name -> tag) becomes the mesh's ``region_names``. With ``keep_gmsh`` the
     mesh is also written to ``<keep_gmsh>.msh``.
@@ -121,6 +126,7 @@ def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
         if keep_gmsh is not None:
             gmsh.write(os.fspath(keep_gmsh) + ".msh")
         points, cells, tags, cell_type = model_volume_cells(gmsh, None)
+    points[np.abs(points) <= ROUND_OFF * np.ptp(points, axis=0).max()] = 0.0
     return CellMesh(points, cells, tags, cell_type, dict(names))
 
 
