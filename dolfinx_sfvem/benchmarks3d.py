@@ -342,7 +342,7 @@ def pneunet3d(h: float = 2.0, n_chambers: int = 4, *, geometry: PneuNet3D = Pneu
     default; y = 0 is then a symmetry plane, u_y = 0 there, and each chamber is open only along it).
     Base layer z <= base (:data:`BASE_LAYER`, "base"); on it the elastomer (:data:`SOLID`,
     "elastomer"): a floor, and the chambers of :class:`PneuNet`'s section, each with its cavity
-    |y| <= width/2 - side (tags :data:`FIRST_CHAMBER` + i, "chamber_1" ...: third medium for
+    abs(y) <= width/2 - side (tags :data:`FIRST_CHAMBER` + i, "chamber_1" ...: third medium for
     ``cavity_pressure``); the gaps between neighbouring chambers (:data:`MEDIUM`, "gaps"), over
     the full width and open at the top and the sides, through which the bulging walls touch.
 
