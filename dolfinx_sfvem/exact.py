@@ -576,12 +576,8 @@ def thick_sphere(a: float, b: float, K: float, mu: float, p: float, follower: bo
 
     Parameters
     ----------
-    a, b : float
-        Inner and outer radius, 0 < a < b.
-    K, mu : float
-        Bulk and shear modulus of Eq. 2 (> 0).
-    p : float
-        Pressure on the inner surface (> 0 pushes it outwards).
+    a, b, K, mu, p : float
+        Radii 0 < a < b, moduli of Eq. 2 and the pressure, as :func:`pressurized_cylinder`.
     follower : bool
         Follower (True) or dead (False) pressure; ignored with ``medium``.
     medium : CavityMedium, optional
