@@ -9,9 +9,13 @@ import math
 
 import numpy as np
 import pytest
-from mpi4py import MPI
+from mpi4py import MPI                  # before dolfinx: loads the MPI library of the 0.11 wheel
 
-from dolfinx_sfvem import meshes
+import dolfinx
+import dolfinx.io
+import ufl
+
+from dolfinx_sfvem import _compat, meshes
 from dolfinx_sfvem.meshes import MEDIUM, SOLID
 
 #: the tetrahedra of a hexahedron in tensor-product order (any split gives its volume)
@@ -201,6 +205,62 @@ def test_pneunet3d_region_volumes_and_markers(half):
     assert np.all(mesh.points[bench.vertices_on("clamp"), 0] == 0.0)
     for name in bench.points:
         bench.vertex(name)
+
+
+# --------------------------------------------------------------------------- into DOLFINx
+#: DOLFINx's (tensor-product) vertex order -> VTK's, which XDMF files use
+_VTK_ORDER = {"hexahedron": [0, 1, 3, 2, 4, 5, 7, 6], "tetrahedron": [0, 1, 2, 3]}
+
+
+def read_by_dolfinx(mesh, path):
+    """The mesh written as an XDMF file with inline (XML) data, cells in VTK's vertex order, and read
+    by DOLFINx's XDMF reader, which puts them back into its own order."""
+    with dolfinx.io.XDMFFile(MPI.COMM_WORLD, str(path), "w") as file:   # the HDF5 file the reader opens
+        file.write_mesh(dolfinx.mesh.create_unit_cube(MPI.COMM_WORLD, 1, 1, 1))
+    cells = mesh.cells[:, _VTK_ORDER[mesh.cell_type]]
+    n, k = cells.shape
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(
+            f'<?xml version="1.0"?><Xdmf Version="3.0"><Domain><Grid Name="mesh" GridType="Uniform">'
+            f'<Topology TopologyType="{mesh.cell_type.capitalize()}" NumberOfElements="{n}" NodesPerElement="{k}">'
+            f'<DataItem Dimensions="{n} {k}" NumberType="Int" Format="XML">{" ".join(map(str, cells.ravel()))}'
+            f'</DataItem></Topology><Geometry GeometryType="XYZ"><DataItem Dimensions="{len(mesh.points)} 3" '
+            f'Format="XML">{" ".join(format(v, ".17g") for v in mesh.points.ravel())}</DataItem></Geometry>'
+            f'</Grid></Domain></Xdmf>')
+    MPI.COMM_WORLD.barrier()
+    with dolfinx.io.XDMFFile(MPI.COMM_WORLD, str(path), "r") as file:
+        return file.read_mesh(name="mesh")
+
+
+def degree2_unknowns(mesh):
+    """3 x (vertices + edges, + faces + cells for hexahedra) of a conforming mesh."""
+    local = {"tetrahedron": [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]],
+             "hexahedron": [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6],
+                            [3, 7]]}[mesh.cell_type]
+    n = len(mesh.points) + len(np.unique(np.sort(mesh.cells[:, local].reshape(-1, 2), axis=1), axis=0))
+    if mesh.cell_type == "hexahedron":
+        n += len(np.unique(np.sort(mesh.cells[:, _HEX_FACES].reshape(-1, 4), axis=1), axis=0)) + len(mesh.cells)
+    return 3 * n
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("make", [lambda: meshes.cbox3d(n=(20, 2, 7)).mesh,
+                                  lambda: meshes.cbox3d(n=(20, 2, 7), cell="tetrahedron").mesh,
+                                  lambda: meshes.pneunet3d(n_chambers=2).mesh,
+                                  lambda: meshes.hertz3d(h_contact=0.25, h_far=0.6).mesh,
+                                  lambda: meshes.extrude(meshes.cbox_grid(h_solid=0.1).mesh, 0.1, 2)],
+                         ids=["cbox-hex", "cbox-tet", "pneunet", "hertz", "extrude"])
+def test_meshes_load_into_dolfinx_with_their_region_volumes_and_degree2_unknowns(make, tmp_path_factory):
+    mesh = make()
+    path = MPI.COMM_WORLD.bcast(tmp_path_factory.mktemp("xdmf") if MPI.COMM_WORLD.rank == 0 else None)
+    domain = read_by_dolfinx(mesh, path / "mesh.xdmf")
+    tags = _compat.create_cell_tags(domain, mesh.tags[_compat.original_cell_index(domain)].astype(np.int32))
+    dx = ufl.Measure("dx", domain=domain, subdomain_data=tags)
+    for tag, volume in region_volumes(mesh).items():
+        value = MPI.COMM_WORLD.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * dx(tag))), op=MPI.SUM)
+        assert value == pytest.approx(volume, rel=1e-12)
+    V = _compat.vector_function_space(domain, 2)
+    assert V.dofmap.index_map.size_global * V.dofmap.index_map_bs == degree2_unknowns(mesh)
 
 
 # --------------------------------------------------------------------------- parallel
