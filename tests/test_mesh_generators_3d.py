@@ -95,6 +95,52 @@ def test_extrude_refuses_other_polygons_hanging_nodes_and_non_parallelograms():
         meshes.extrude(meshes.quad_rectangle(1.0, 1.0, 2, 2), 1.0, 0)
 
 
+# --------------------------------------------------------------------------- from gmsh
+def _two_boxes(path, hexahedra: bool):
+    """Write two unit boxes side by side (physical groups "left" 7 and "right" 8) to ``path`` as
+    second-order tetrahedra, or as hexahedra (transfinite, recombined)."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        left, right = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1), gmsh.model.occ.addBox(1, 0, 0, 1, 1, 1)
+        gmsh.model.occ.fragment([(3, left)], [(3, right)])
+        gmsh.model.occ.synchronize()
+        for name, tag, volume in (("left", 7, left), ("right", 8, right)):
+            gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [volume], tag), name)
+        if hexahedra:
+            for dim in (1, 2, 3):
+                for _, entity in gmsh.model.getEntities(dim):
+                    {1: lambda e: gmsh.model.mesh.setTransfiniteCurve(e, 3),
+                     2: gmsh.model.mesh.setTransfiniteSurface, 3: gmsh.model.mesh.setTransfiniteVolume}[dim](entity)
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        else:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(3)
+        if not hexahedra:
+            gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.parametrize("hexahedra", [False, True])
+def test_from_gmsh_3d_reads_the_volume_cells_of_the_physical_groups(tmp_path, hexahedra):
+    _two_boxes(tmp_path / "boxes.msh", hexahedra)
+    mesh = meshes.from_gmsh_3d(tmp_path / "boxes.msh")
+    assert mesh.cell_type == ("hexahedron" if hexahedra else "tetrahedron")
+    assert mesh.region_names == {"left": 7, "right": 8}
+    assert region_volumes(mesh) == pytest.approx({7: 1.0, 8: 1.0}, rel=1e-12)   # positive cells, parallelepipeds
+    if hexahedra:
+        assert len(mesh.cells) == 2 * 2 ** 3 and len(mesh.points) == 5 * 3 * 3
+    assert face_areas(mesh.points, boundary_faces(mesh)).sum() == pytest.approx(10.0, rel=1e-12)
+    renamed = meshes.from_gmsh_3d(tmp_path / "boxes.msh", {"right": SOLID})
+    assert renamed.region_names == {"right": SOLID} and np.all(renamed.tags == SOLID)
+    with pytest.raises(ValueError, match="middle"):
+        meshes.from_gmsh_3d(tmp_path / "boxes.msh", {"middle": 3})
+
+
 # --------------------------------------------------------------------------- C-box
 @pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
 def test_cbox3d_regions_conformity_and_markers(cell):
