@@ -70,7 +70,7 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
 API_GROUPS = (
     ("Problem and load path", "Define a problem, solve it, control the path.",
      ("ContactProblem", "LoadStepping", "ArcLength", "SolveFailed", "Adaptivity", "Compression", "NearContact")),
-    ("Meshes", "Polygon meshes, the paper's geometries and the mesh-making tools (``sf.meshes``).",
+    ("Meshes", "Polygon meshes, the paper's geometries, the 3D benchmarks and the mesh-making tools (``sf.meshes``).",
      ("PolygonMesh", "meshes")),
     ("Materials", "Region energies written once in UFL (paper Eqs. 2-17).",
      ("Energy", "Hyperelastic", "ThirdMedium", "UserEnergy")),
