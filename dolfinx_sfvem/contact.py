@@ -57,8 +57,9 @@ class Gap:
     value : float
         min_p g(p) (length unit of the mesh); negative: overlap; ``inf`` when no boundary node
         has a partner (one body without facing surfaces).
-    x, X : (2,) float
-        Deformed and reference position of the node where it occurs.
+    x, X : (2,) or (3,) float
+        Deformed and reference position of the node (3D: or the point sampled on a crossing
+        face) where it occurs.
     region, partner_region : int
         Region tag of that node and of the boundary piece it is measured to (-1 if none).
     body, partner_body : int
@@ -82,8 +83,8 @@ class Gap:
 
     def describe(self) -> str:
         """One sentence naming the regions and the place."""
-        where = (f"node at ({self.x[0]:.4g}, {self.x[1]:.4g}), reference ({self.X[0]:.4g}, {self.X[1]:.4g}), "
-                 f"of region {self.region} (body {self.body})")
+        x, X = (", ".join(f"{c:.4g}" for c in v) for v in (self.x, self.X))
+        where = f"node at ({x}), reference ({X}), of region {self.region} (body {self.body})"
         partner = f"region {self.partner_region} (body {self.partner_body})"
         if self.value < 0.0:
             return f"{where} lies {-self.value:.3e} inside {partner}"
@@ -102,13 +103,14 @@ class ContactPair:
 
     Attributes
     ----------
-    force : (2,) float
+    force : (2,) or (3,) float
         Total force of the medium (its whole energy, regularization included) on ``body``'s
         surface facing the partner (force per unit thickness, the units of the reactions).
     max_pressure : float
         Largest normal pressure there (:attr:`ContactPressure.pressure`; force per unit length).
     zone_length : float
-        Deformed length of the contact zone (pressure above the threshold fraction of the largest).
+        Deformed length of the contact zone (pressure above the threshold fraction of the largest);
+        in 3D its deformed area.
     gap : float
         Smallest signed gap of ``body``'s nodes facing the partner.
     """
@@ -132,7 +134,7 @@ class ContactPressure:
 
     Attributes
     ----------
-    X, x : (n, 2)
+    X, x : (n, 2) or (n, 3)
         Reference and deformed positions of the boundary nodes.
     pressure : (n,)
         Normal pressure of the medium's material response on the solid (compressive positive;
@@ -442,3 +444,16 @@ def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_norma
                 elif d < g[p]:
                     g[p], partner[p] = d, s
     return g, partner, depth
+
+
+def solid_boundary(mesh, solid_tags: typing.Collection[int],
+                   midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
+                   tolerance: float = OVERLAP_TOLERANCE,
+                   face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None):
+    """The contact geometry of ``mesh``: :class:`SolidBoundary` for a :class:`PolygonMesh`,
+    :class:`~dolfinx_sfvem.solid_surface.SolidSurface` for a 3D ``CellMesh`` (the same interface;
+    ``face_centre_keys`` only for hexahedra)."""
+    if isinstance(mesh, PolygonMesh):
+        return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
+    from .solid_surface import SolidSurface       # libigl is needed in 3D only
+    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys)
