@@ -239,9 +239,10 @@ class SolidSurface:
         g, partner sub-triangles and depths of the nodes, and the crossing samples (positions,
         reference positions, depths, sub-triangles, partner sub-triangles)."""
         x = self.X + self._in_node_order(u)
+        flagged, crossing = self._crossing_triangles(x)
         g = np.full(self.n_nodes, np.inf)
         partner = np.full(self.n_nodes, -1, dtype=np.int64)
-        inside = self._inside(x, x, self.node_body)
+        inside = self._inside(x, x, self.node_body, crossing)
         for body in range(self.n_bodies):                      # other bodies: every sub-triangle counts
             query = np.flatnonzero((self.node_body != body) & (inside < 0))
             if query.size:
@@ -256,19 +257,50 @@ class SolidSurface:
             if here.size:
                 d, s = self._depth(x, x[here], self.X[here], self.node_h[here], body, self.node_body[here] == body)
                 depth[here], g[here], partner[here] = d, -d, s
-        return x, g, partner, depth, self._crossings(x)
+        return x, g, partner, depth, self._samples(x, flagged, crossing)
 
-    def _inside(self, x: np.ndarray, q: np.ndarray, q_body: np.ndarray, own: float = 1.0) -> np.ndarray:
+    def _crossing_triangles(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The sub-triangles (sorted) that cross a sub-triangle of another body, or of their own body
+        beyond two edge lengths (reference centres), by libigl's exact predicates; and which bodies'
+        surfaces cross (n_bodies, n_bodies) bool, symmetric (the diagonal: a body crossing itself)."""
+        flagged = [np.zeros(0, dtype=np.int64)]
+        crossing = np.zeros((self.n_bodies, self.n_bodies), dtype=bool)
+        for body in range(self.n_bodies):
+            tri, first = self._body_triangles(body), self.body_offsets[body]
+            found, pairs, _ = igl.predicates.find_self_intersections(x, tri)
+            if found:
+                i, j = pairs[:, 0] + first, pairs[:, 1] + first
+                far = np.linalg.norm(self.triangle_centre[i] - self.triangle_centre[j], axis=1) > \
+                    2.0 * np.maximum(self.triangle_h[i], self.triangle_h[j])
+                flagged += [i[far], j[far]]
+                crossing[body, body] = far.any()
+            for other in range(body + 1, self.n_bodies):
+                found, pairs, _ = igl.predicates.find_intersections(x, tri, x, self._body_triangles(other))
+                if found:
+                    flagged += [pairs[:, 0] + first, pairs[:, 1] + self.body_offsets[other]]
+                    crossing[body, other] = crossing[other, body] = True
+        return np.unique(np.concatenate(flagged)), crossing
+
+    def _inside(self, x: np.ndarray, q: np.ndarray, q_body: np.ndarray, crossing: np.ndarray,
+                own: float = 1.0) -> np.ndarray:
         """The body each point ``q`` (m, 3) of body ``q_body`` (m,) lies inside (-1: none): winding number
         of another body's deformed surface above 1/2, of the own body's at least ``own`` (1 for a node:
-        a full turn beyond the surface it sits on; libigl's fast winding number, the exact one where it
-        is within 0.25 of the decision)."""
+        a full turn beyond the surface it sits on). Only where the surfaces cross (``crossing``, from
+        :meth:`_crossing_triangles`) can some points of a body be inside and others not: there every
+        point is tested (libigl's fast winding number, the exact one where it is within 0.25 of the
+        decision); a body whose surface crosses no other lies wholly inside or outside it (its first
+        point decides), and one that does not cross itself has no point inside itself."""
         inside = np.full(q.shape[0], -1, dtype=np.int64)
         for body in range(self.n_bodies):
             tri = self._body_triangles(body)
             corners = x[tri].reshape(-1, 3)
             lo, hi = corners.min(axis=0), corners.max(axis=0)
-            query = np.flatnonzero((inside < 0) & np.all((q >= lo) & (q <= hi), axis=1))
+            test = (inside < 0) & np.all((q >= lo) & (q <= hi), axis=1) & crossing[body][q_body]
+            for other in np.unique(q_body[(inside < 0) & ~crossing[body][q_body] & (q_body != body)]):
+                first = np.flatnonzero(q_body == other)[:1]
+                if igl.winding_number(x, tri, q[first])[0] > 0.5:
+                    inside[(q_body == other) & (inside < 0)] = body
+            query = np.flatnonzero(test)
             if not query.size:
                 continue
             w = igl.fast_winding_number(x, tri, q[query])
@@ -288,26 +320,12 @@ class SolidSurface:
         d, s = _nearest_beyond(q, Q, h, x, self.triangles[lo:hi], self.triangle_centre[lo:hi], own)
         return d, s + lo
 
-    def _crossings(self, x: np.ndarray):
-        """Samples on sub-triangles crossing another body's, or a non-neighbouring part of their own
-        body's, sub-triangles (exact predicates), with their depth inside that body (0 outside)."""
-        flagged = []
-        for body in range(self.n_bodies):
-            tri = self._body_triangles(body)
-            lo_b = self.body_offsets[body]
-            found, pairs, _ = igl.predicates.find_self_intersections(x, tri)
-            if found:
-                i, j = pairs[:, 0] + lo_b, pairs[:, 1] + lo_b
-                far = np.linalg.norm(self.triangle_centre[i] - self.triangle_centre[j], axis=1) > \
-                    2.0 * np.maximum(self.triangle_h[i], self.triangle_h[j])
-                flagged += [i[far], j[far]]
-            for other in range(body + 1, self.n_bodies):
-                found, pairs, _ = igl.predicates.find_intersections(x, tri, x, self._body_triangles(other))
-                if found:
-                    flagged += [pairs[:, 0] + lo_b, pairs[:, 1] + self.body_offsets[other]]
-        s = np.unique(np.concatenate(flagged)) if flagged else np.zeros(0, dtype=np.int64)
-        tri = np.repeat(s, SAMPLES.shape[0])
-        weights = np.tile(SAMPLES, (s.size, 1))
+    def _samples(self, x: np.ndarray, flagged: np.ndarray, crossing: np.ndarray):
+        """Points sampled on the crossing sub-triangles ``flagged`` (positions, reference positions), their
+        depth inside another body or their own (0 outside), the sub-triangles they lie on and those where
+        the depth is measured."""
+        tri = np.repeat(flagged, SAMPLES.shape[0])
+        weights = np.tile(SAMPLES, (flagged.size, 1))
         q = np.einsum("ik,ikj->ij", weights, x[self.triangles[tri]])
         Q = np.einsum("ik,ikj->ij", weights, self.X[self.triangles[tri]])
         # a winding number is not defined on the surface itself: the samples' is taken 1e-6 h outside it,
@@ -317,7 +335,7 @@ class SolidSurface:
             np.add.at(normal, self.triangles[:, corner], self._area_vectors(x))
         normal = np.einsum("ik,ikj->ij", weights, (normal / np.linalg.norm(normal, axis=1)[:, None])[self.triangles[tri]])
         off = q + 1e-6 * self.triangle_h[tri][:, None] * normal / np.linalg.norm(normal, axis=1)[:, None]
-        inside = self._inside(x, off, self.triangle_body[tri], own=0.5)
+        inside = self._inside(x, off, self.triangle_body[tri], crossing, own=0.5)
         depth, partner = np.zeros(tri.size), np.full(tri.size, -1, dtype=np.int64)
         for body in range(self.n_bodies):
             here = np.flatnonzero(inside == body)
@@ -413,13 +431,18 @@ class SolidSurface:
         return surface
 
 
+#: the directions the clusters of the facing search are sorted by: towards the faces, edges and corners of a cube
+DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0
+DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
+
+
 def _clusters(points: np.ndarray, normals: np.ndarray, size: int) -> list[np.ndarray]:
-    """Groups of at most ``size`` indices of ``points`` (m, 3): by the axis direction (±x, ±y, ±z)
-    nearest to their ``normals``, then by halving at the median: along that axis while the group
-    spreads along it, then along its longest extent."""
-    dominant = np.argmax(np.abs(normals), axis=1)
-    axis = 2 * dominant + (normals[np.arange(dominant.size), dominant] < 0.0)
-    todo = [np.flatnonzero(axis == a) for a in range(6)]
+    """Groups of at most ``size`` indices of ``points`` (m, 3): by the one of :data:`DIRECTIONS`
+    nearest to their ``normals``, then halved: across that direction at the middle while the group
+    spreads along it (parallel layers apart: a plate's two sides, a slot's floor and the top), then
+    at the median of its longest extent."""
+    direction = np.argmax(normals @ DIRECTIONS.T, axis=1)
+    todo = [np.flatnonzero(direction == k) for k in range(DIRECTIONS.shape[0])]
     out = []
     while todo:
         group = todo.pop()
@@ -429,11 +452,14 @@ def _clusters(points: np.ndarray, normals: np.ndarray, size: int) -> list[np.nda
             continue
         p = points[group]
         extent = p.max(axis=0) - p.min(axis=0)
-        normal = dominant[group[0]]
-        # parallel layers (a plate's two sides, a slot's floor and the top) apart first
-        along = normal if extent[normal] > 1e-9 * extent.max() else np.argmax(extent)
-        order = np.argsort(p[:, along], kind="stable")
-        todo += [group[order[:group.size // 2]], group[order[group.size // 2:]]]
+        level = p @ DIRECTIONS[direction[group[0]]]
+        if level.max() - level.min() > 1e-9 * extent.max():
+            below = level < 0.5 * (level.min() + level.max())
+        else:
+            along = p[:, np.argmax(extent)]
+            below = np.zeros(group.size, dtype=bool)
+            below[np.argsort(along, kind="stable")[:group.size // 2]] = True
+        todo += [group[below], group[~below]]
     return out
 
 
