@@ -40,6 +40,7 @@ import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.csgraph
+import scipy.spatial
 
 from .contact import (FACING_COSINE, OVERLAP_TOLERANCE, ZONE_THRESHOLD, ContactPair, ContactPressure, Gap,
                       SolidBoundary)
@@ -315,10 +316,33 @@ class SolidSurface:
                own: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distances (m,) of points ``q`` (m, 3), reference ``Q``, inside ``body`` to its surface and the
         sub-triangles (m,) where they occur; for points of the body itself (``own`` (m,) bool) the
-        sub-triangles within two edge lengths ``h`` (m,) of the reference point are left out."""
-        lo, hi = self.body_offsets[body], self.body_offsets[body + 1]
-        d, s = _nearest_beyond(q, Q, h, x, self.triangles[lo:hi], self.triangle_centre[lo:hi], own)
-        return d, s + lo
+        sub-triangles within two edge lengths ``h`` (m,) of the reference point are left out: their
+        candidates are the 32 sub-triangles with the nearest deformed centres, then every one whose
+        centre is near enough to beat the nearest of those (scipy's k-d tree), all of them if none of
+        the 32 is beyond the neighbourhood."""
+        first = self.body_offsets[body]
+        tri = self._body_triangles(body)
+        d, s = np.zeros(q.shape[0]), np.zeros(q.shape[0], dtype=np.int64)
+        other = ~own
+        if other.any():
+            d2, s[other], _ = igl.point_mesh_squared_distance(q[other], x, tri)
+            d[other] = np.sqrt(d2)
+        if own.any():
+            corners = x[tri]
+            centre = corners.mean(axis=1)
+            reach = float(np.linalg.norm(corners - centre[:, None], axis=2).max())
+            tree = scipy.spatial.cKDTree(centre)
+            qo, k = q[own], min(32, tri.shape[0])
+            near = tree.query(qo, k)[1].reshape(qo.shape[0], k)
+            args = (qo, Q[own], h[own], x, tri, self.triangle_centre[first:first + tri.shape[0]])
+            bound, _ = _nearest_beyond(*args, np.arange(qo.shape[0] + 1) * k, near.ravel())
+            lists = [np.arange(tri.shape[0])] * qo.shape[0]
+            finite = np.flatnonzero(np.isfinite(bound))
+            for i, found in zip(finite, tree.query_ball_point(qo[finite], bound[finite] + reach)):
+                lists[i] = np.asarray(found, dtype=np.int64)
+            offsets = np.concatenate([[0], np.cumsum([len(c) for c in lists])])
+            d[own], s[own] = _nearest_beyond(*args, offsets, np.concatenate(lists))
+        return d, s + first
 
     def _samples(self, x: np.ndarray, flagged: np.ndarray, crossing: np.ndarray):
         """Points sampled on the crossing sub-triangles ``flagged`` (positions, reference positions), their
@@ -604,20 +628,19 @@ def _facing_nearest(nodes, tris, x, X, node_normal, triangles, centre, normal, f
 
 
 @numba.njit(cache=True)
-def _nearest_beyond(q, Q, h, x, triangles, centre, own):
-    """Distance of each point q (m, 3) to the nearest of ``triangles`` and its index; where ``own``
-    (m,) is set, the triangles whose reference centre lies within 2 h of the reference point Q are
-    left out (p's neighbourhood)."""
+def _nearest_beyond(q, Q, h, x, triangles, centre, offsets, candidates):
+    """Distance of each point q[k] (m, 3) to the nearest of the ``triangles`` listed in
+    ``candidates[offsets[k]:offsets[k + 1]]`` whose reference centre lies beyond 2 h[k] of the
+    reference point Q[k] (outside its neighbourhood), and that triangle (inf and -1 if none)."""
     m, n = q.shape[0], x.shape[0]
     points = np.concatenate((x, q))             # the query points after the triangles' vertices
     d = np.full(m, np.inf)
     s = np.full(m, -1, dtype=np.int64)
     for k in range(m):
-        for t in range(triangles.shape[0]):
-            if own[k]:
-                e = _sub((centre[t, 0], centre[t, 1], centre[t, 2]), (Q[k, 0], Q[k, 1], Q[k, 2]))
-                if _dot(e, e) <= 4.0 * h[k] * h[k]:
-                    continue
+        for t in candidates[offsets[k]:offsets[k + 1]]:
+            e = _sub((centre[t, 0], centre[t, 1], centre[t, 2]), (Q[k, 0], Q[k, 1], Q[k, 2]))
+            if _dot(e, e) <= 4.0 * h[k] * h[k]:
+                continue
             dist = _triangle_distance(points, n + k, triangles[t, 0], triangles[t, 1], triangles[t, 2])
             if dist < d[k]:
                 d[k], s[k] = dist, t
