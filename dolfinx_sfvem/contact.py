@@ -288,12 +288,7 @@ class SolidBoundary:
 
     def _gap(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, depth: np.ndarray) -> Gap:
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
-        if not np.isfinite(g).any():
-            return Gap(math.inf, (math.nan, math.nan), (math.nan, math.nan), -1, -1, -1, -1, overlap)
-        p = int(np.argmin(g))
-        s = int(partner[p])
-        return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
-                   int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
+        return smallest_gap(self, x, g, partner, overlap)
 
     def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
                   f_material: np.ndarray) -> ContactPressure:
@@ -321,31 +316,7 @@ class SolidBoundary:
                       out=np.zeros(self.n_nodes), where=length_at > 0.0)
         p[m[facing]] = p_edge[facing]
         piece_length = np.linalg.norm(x[self.pieces[:, 1]] - x[self.pieces[:, 0]], axis=1)
-        partner_body = np.where(partner >= 0, self.piece_body[np.maximum(partner, 0)], -1)
-        pairs, zone = [], np.zeros(self.n_nodes, dtype=bool)
-        for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
-            on = (self.node_body == body) & (partner_body == other)
-            p_max = float(p[on].max(initial=0.0))
-            mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
-            zone |= mine
-            in_zone = mine[self.pieces[:, 0]] & mine[self.pieces[:, 1]]
-            region = int(self.node_tag[np.argmax(on)])
-            pairs.append(ContactPair(body, other, region, int(self.piece_tag[np.argmax(self.piece_body == other)]),
-                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_length[in_zone].sum()),
-                                     float(g[on].min(initial=math.inf))))
-        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, self._surfaces(partner_body), pairs)
-
-    def _surfaces(self, partner_body: np.ndarray) -> np.ndarray:
-        """:attr:`ContactPressure.surface` of every node, from the body each node faces (n,) (-1: none)."""
-        pair = np.where(partner_body >= 0, self.node_body * (self.n_bodies + 1) + partner_body, -1)
-        i, j = self.pieces.T
-        joined = (pair[i] == pair[j]) & (pair[i] >= 0)
-        graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(self.n_nodes,) * 2)
-        _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
-        surface = np.full(self.n_nodes, -1, dtype=np.int64)
-        facing = pair >= 0
-        surface[facing] = np.unique(label[facing], return_inverse=True)[1]
-        return surface
+        return contact_pressure(self, x, g, partner, p, f, piece_length)
 
     def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
         """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``
@@ -367,6 +338,68 @@ class SolidBoundary:
         collective, the result on every rank)."""
         u = self.gather(comm, keys, values)
         return comm.bcast(self.gap(u) if comm.rank == 0 else None, root=0)
+
+
+class _Pieces(typing.Protocol):
+    """What :func:`smallest_gap` and :func:`contact_pressure` read of a :class:`SolidBoundary` (pieces:
+    straight segments) or a :class:`~dolfinx_sfvem.solid_surface.SolidSurface` (flat sub-triangles)."""
+    X: np.ndarray
+    n_bodies: int
+    node_body: np.ndarray
+    node_tag: np.ndarray
+    pieces: np.ndarray
+    piece_body: np.ndarray
+    piece_tag: np.ndarray
+
+
+def smallest_gap(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: np.ndarray, overlap: float) -> Gap:
+    """The :class:`Gap` of the smallest ``g`` (n_nodes,) of the nodes, at deformed positions ``x``,
+    measured to the pieces ``partner`` (n_nodes,)."""
+    if not np.isfinite(g).any():
+        nowhere = (math.nan,) * x.shape[1]
+        return Gap(math.inf, nowhere, nowhere, -1, -1, -1, -1, overlap)
+    p = int(np.argmin(g))
+    s = int(partner[p])
+    return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, boundary.X[p])), int(boundary.node_tag[p]),
+               int(boundary.piece_tag[s]), int(boundary.node_body[p]), int(boundary.piece_body[s]), overlap)
+
+
+def contact_pressure(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: np.ndarray, p: np.ndarray,
+                     f: np.ndarray, piece_size: np.ndarray) -> ContactPressure:
+    """The :class:`ContactPressure` of the nodal pressure ``p`` (n_nodes,): the pairs of bodies (each
+    node's partner: the body of its piece ``partner``), each with the whole medium force ``f``
+    (n_nodes, dim) on its nodes, its largest pressure, the deformed size (``piece_size`` (m,): lengths
+    or areas) of its zone and its smallest gap ``g``; and the facing surfaces."""
+    n_nodes = boundary.X.shape[0]
+    partner_body = np.where(partner >= 0, boundary.piece_body[np.maximum(partner, 0)], -1)
+    pairs, zone = [], np.zeros(n_nodes, dtype=bool)
+    for body, other in sorted({(int(i), int(j)) for i, j in zip(boundary.node_body, partner_body) if j >= 0}):
+        on = (boundary.node_body == body) & (partner_body == other)
+        p_max = float(p[on].max(initial=0.0))
+        mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
+        zone |= mine
+        in_zone = mine[boundary.pieces].all(axis=1)
+        region = int(boundary.node_tag[np.argmax(on)])
+        pairs.append(ContactPair(body, other, region, int(boundary.piece_tag[np.argmax(boundary.piece_body == other)]),
+                                 tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_size[in_zone].sum()),
+                                 float(g[on].min(initial=math.inf))))
+    return ContactPressure(boundary.X, x, p, boundary.node_body, partner_body, zone,
+                           _surfaces(boundary, partner_body), pairs)
+
+
+def _surfaces(boundary: _Pieces, partner_body: np.ndarray) -> np.ndarray:
+    """:attr:`ContactPressure.surface` of every node, from the body each node faces (n,) (-1: none):
+    nodes joined through the sides of pieces whose two nodes face the same body."""
+    n_nodes = boundary.X.shape[0]
+    pair = np.where(partner_body >= 0, boundary.node_body * (boundary.n_bodies + 1) + partner_body, -1)
+    i, j = boundary.pieces.ravel(), np.roll(boundary.pieces, -1, axis=1).ravel()
+    joined = (pair[i] == pair[j]) & (pair[i] >= 0)
+    graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(n_nodes,) * 2)
+    _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    surface = np.full(n_nodes, -1, dtype=np.int64)
+    facing = pair >= 0
+    surface[facing] = np.unique(label[facing], return_inverse=True)[1].reshape(-1)
+    return surface
 
 
 @numba.njit(cache=True)

@@ -42,8 +42,8 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
 
-from .contact import (FACING_COSINE, OVERLAP_TOLERANCE, ZONE_THRESHOLD, ContactPair, ContactPressure, Gap,
-                      SolidBoundary)
+from .contact import (FACING_COSINE, OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary, contact_pressure,
+                      smallest_gap)
 from .polygon_mesh import edge_key
 
 #: the faces of DOLFINx's reference cells, vertices in cyclic order (oriented outwards afterwards)
@@ -194,8 +194,8 @@ class SolidSurface:
         tri_face = np.repeat(np.arange(faces.shape[0]), local.shape[0])
         by_body = np.argsort(face_body[tri_face], kind="stable")
         self.triangles, self.triangle_face = tri[by_body], tri_face[by_body]
-        self.triangle_body, self.triangle_tag = face_body[self.triangle_face], face_tag[self.triangle_face]
-        self.body_offsets = np.searchsorted(self.triangle_body, np.arange(self.n_bodies + 1))
+        self.piece_body, self.piece_tag = face_body[self.triangle_face], face_tag[self.triangle_face]
+        self.body_offsets = np.searchsorted(self.piece_body, np.arange(self.n_bodies + 1))
         area_vector = self._area_vectors(self.X)
         self.triangle_normal = area_vector / np.linalg.norm(area_vector, axis=1)[:, None]
         self.triangle_centre = self.X[self.triangles].mean(axis=1)
@@ -209,7 +209,7 @@ class SolidSurface:
         self.triangle_h = edge[self.triangle_face]
         for corner in range(3):
             nodes = self.triangles[:, corner]
-            self.node_body[nodes], self.node_tag[nodes] = self.triangle_body, self.triangle_tag
+            self.node_body[nodes], self.node_tag[nodes] = self.piece_body, self.piece_tag
             np.add.at(normal, nodes, area_vector)
             np.maximum.at(self.node_h, nodes, self.triangle_h)
         self.node_normal = normal / np.linalg.norm(normal, axis=1)[:, None]
@@ -218,6 +218,11 @@ class SolidSurface:
     @property
     def n_nodes(self) -> int:
         return self.X.shape[0]
+
+    @property
+    def pieces(self) -> np.ndarray:
+        """The sub-triangles, under the name :func:`.contact.contact_pressure` reads."""
+        return self.triangles
 
     def _area_vectors(self, x: np.ndarray) -> np.ndarray:
         """Area vectors (n_tri, 3) of the sub-triangles at node positions ``x``: outward, |.| = 2 area."""
@@ -357,15 +362,15 @@ class SolidSurface:
         normal = np.zeros_like(x)
         for corner in range(3):
             np.add.at(normal, self.triangles[:, corner], self._area_vectors(x))
-        normal = np.einsum("ik,ikj->ij", weights, (normal / np.linalg.norm(normal, axis=1)[:, None])[self.triangles[tri]])
-        off = q + 1e-6 * self.triangle_h[tri][:, None] * normal / np.linalg.norm(normal, axis=1)[:, None]
-        inside = self._inside(x, off, self.triangle_body[tri], crossing, own=0.5)
+        normal = _unit(np.einsum("ik,ikj->ij", weights, _unit(normal)[self.triangles[tri]]))
+        off = q + 1e-6 * self.triangle_h[tri][:, None] * normal
+        inside = self._inside(x, off, self.piece_body[tri], crossing, own=0.5)
         depth, partner = np.zeros(tri.size), np.full(tri.size, -1, dtype=np.int64)
         for body in range(self.n_bodies):
             here = np.flatnonzero(inside == body)
             if here.size:
                 depth[here], partner[here] = self._depth(x, q[here], Q[here], self.triangle_h[tri[here]], body,
-                                                         self.triangle_body[tri[here]] == body)
+                                                         self.piece_body[tri[here]] == body)
         return q, Q, depth, tri, partner
 
     def gap(self, u: np.ndarray) -> Gap:
@@ -391,17 +396,12 @@ class SolidSurface:
         q, Q, q_depth, q_tri, q_partner = crossings
         overlap = max(float((depth / (self.tolerance * self.node_h)).max(initial=0.0)),
                       float((q_depth / (self.tolerance * self.triangle_h[q_tri])).max(initial=0.0)))
-        if q_depth.size and q_depth.max() > 0.0 and -q_depth.max() < g.min(initial=np.inf):
-            p = int(np.argmax(q_depth))
-            s, t = int(q_partner[p]), int(q_tri[p])
-            return Gap(-float(q_depth[p]), tuple(map(float, q[p])), tuple(map(float, Q[p])), int(self.triangle_tag[t]),
-                       int(self.triangle_tag[s]), int(self.triangle_body[t]), int(self.triangle_body[s]), overlap)
-        if not np.isfinite(g).any():
-            return Gap(math.inf, (math.nan,) * 3, (math.nan,) * 3, -1, -1, -1, -1, overlap)
-        p = int(np.argmin(g))
-        s = int(partner[p])
-        return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
-                   int(self.triangle_tag[s]), int(self.node_body[p]), int(self.triangle_body[s]), overlap)
+        if q_depth.max(initial=0.0) > 0.0 and -q_depth.max() < g.min():   # a sample deeper than every node
+            k, t = int(np.argmax(q_depth)), int(q_tri[np.argmax(q_depth)])
+            s = int(q_partner[k])
+            return Gap(-float(q_depth[k]), tuple(map(float, q[k])), tuple(map(float, Q[k])), int(self.piece_tag[t]),
+                       int(self.piece_tag[s]), int(self.piece_body[t]), int(self.piece_body[s]), overlap)
+        return smallest_gap(self, x, g, partner, overlap)
 
     def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
                   f_material: np.ndarray) -> ContactPressure:
@@ -425,39 +425,18 @@ class SolidSurface:
         p_face = np.divide(np.einsum("ij,ij->i", resultant, vector), area ** 2, out=np.zeros_like(area), where=area > 0.0)
         p = np.divide(np.bincount(nodes, face_area * np.repeat(p_face, self.face_nodes.shape[1]), self.n_nodes), area_at,
                       out=np.zeros(self.n_nodes), where=area_at > 0.0)
-        partner_body = np.where(partner >= 0, self.triangle_body[np.maximum(partner, 0)], -1)
-        tri_area = 0.5 * np.linalg.norm(self._area_vectors(x), axis=1)
-        pairs, zone = [], np.zeros(self.n_nodes, dtype=bool)
-        for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
-            on = (self.node_body == body) & (partner_body == other)
-            p_max = float(p[on].max(initial=0.0))
-            mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
-            zone |= mine
-            in_zone = mine[self.triangles].all(axis=1)
-            region = int(self.node_tag[np.argmax(on)])
-            pairs.append(ContactPair(body, other, region, int(self.triangle_tag[np.argmax(self.triangle_body == other)]),
-                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(tri_area[in_zone].sum()),
-                                     float(g[on].min(initial=math.inf))))
-        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, self._surfaces(partner_body), pairs)
-
-    def _surfaces(self, partner_body: np.ndarray) -> np.ndarray:
-        """:attr:`ContactPressure.surface` of every node: joined through sub-triangle edges whose two
-        nodes face the same body."""
-        pair = np.where(partner_body >= 0, self.node_body * (self.n_bodies + 1) + partner_body, -1)
-        i, j = self.triangles.T, np.roll(self.triangles, -1, axis=1).T
-        i, j = i.ravel(), j.ravel()
-        joined = (pair[i] == pair[j]) & (pair[i] >= 0)
-        graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(self.n_nodes,) * 2)
-        _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
-        surface = np.full(self.n_nodes, -1, dtype=np.int64)
-        facing = pair >= 0
-        surface[facing] = np.unique(label[facing], return_inverse=True)[1].reshape(-1)
-        return surface
+        return contact_pressure(self, x, g, partner, p, f, 0.5 * np.linalg.norm(self._area_vectors(x), axis=1))
 
 
 #: the directions the clusters of the facing search are sorted by: towards the faces, edges and corners of a cube
 DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0
 DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """Rows of ``v`` (m, 3) scaled to length 1 (rows of zeros, on a collapsed surface, stay 0)."""
+    length = np.linalg.norm(v, axis=1)[:, None]
+    return np.divide(v, length, out=np.zeros_like(v), where=length > 0.0)
 
 
 def _clusters(points: np.ndarray, normals: np.ndarray, size: int) -> list[np.ndarray]:

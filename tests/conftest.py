@@ -15,6 +15,8 @@ returned as they are; ``polygon`` and ``tabulated_name`` run a test once per tes
 - PolygonMesh builders and checks (test_polygon_mesh, test_polygon_mesh_fuzz): ``square_grid``,
   ``hanging_mesh``, ``glue``, ``shoelace``, ``assert_valid_mesh``, ``assert_valid_triangulation``,
   ``assert_deepest_diagonal``, ``nonconvex`` (polygons to triangulate).
+- ``box_grid``: structured 3D grids of hexahedra or tetrahedra as the arrays of a ``CellMesh``
+  (test_solid_surface, test_pictures3d).
 """
 import json
 import pathlib
