@@ -488,5 +488,8 @@ def solid_boundary(mesh, solid_tags: typing.Collection[int],
     ``face_centre_keys`` only for hexahedra)."""
     if isinstance(mesh, PolygonMesh):
         return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
+    if np.shape(mesh.points)[1] != 3:
+        raise TypeError(f"contact checks need a PolygonMesh (2D) or a 3D mesh, not a {mesh.cell_type} mesh "
+                        f"with {np.shape(mesh.points)[1]} coordinates")
     from .solid_surface import SolidSurface       # libigl is needed in 3D only
     return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys)

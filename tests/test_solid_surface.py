@@ -169,3 +169,19 @@ def test_size_50k_nodes(box_grid):
     took = time.perf_counter() - start
     print(f"{s.n_nodes} surface nodes, {s.triangles.shape[0]} sub-triangles: set-up {built:.2f} s, gap {took:.2f} s")
     assert gap.value == pytest.approx(0.25, abs=1e-12)
+
+
+@pytest.mark.mpi
+def test_gap_of_state_gathers_the_ranks_nodes(box_grid):
+    """Each rank holds every other surface node (and nodes that are not on the surface): the gap of
+    the gathered state is the serial one, on every rank."""
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    s = surface(two_cubes(box_grid, "hexahedron"))
+    u = np.zeros_like(s.X)
+    u[s.X[:, 0] > 1.2, 0] = -0.25
+    keys = np.concatenate([s.node_keys, [10 ** 9 + comm.rank]])
+    values = np.concatenate([u, [[9.0, 9.0, 9.0]]])
+    mine = np.arange(keys.size) % comm.size == comm.rank
+    gap = s.gap_of_state(comm, keys[mine], values[mine])
+    assert gap.value == pytest.approx(0.05, abs=1e-12) and gap.value == s.gap(u).value
