@@ -22,8 +22,12 @@ boundary surface of the solids of a tetrahedral or hexahedral mesh:
   inside than ``tolerance`` times its longest surface edge.
 
 The geometry queries are libigl's (pinned in pyproject.toml): ``point_mesh_squared_distance``
-(AABB trees), ``fast_winding_number`` (exact ``winding_number`` where it is close to a
-decision) and ``predicates.find_intersections``. The own body's facing surfaces are found per
+(AABB trees), ``predicates.find_intersections`` / ``find_self_intersections`` (exact), and
+``fast_winding_number`` (exact ``winding_number`` where it is close to a decision), evaluated only
+for bodies whose surfaces cross: without a crossing a body lies wholly inside or outside another
+and has no node inside itself. Depths inside the own body take their candidates from scipy's
+k-d tree. The surface is read from the mesh's arrays alone (points, cells, tags, cell type): the
+module needs nothing else of a ``CellMesh``. The own body's facing surfaces are found per
 *cluster* of nodes and of sub-triangles (grouped by normal direction and position): cluster pairs
 facing throughout are handed to libigl as one triangle set, pairs facing in part go through a
 compiled loop over their node-triangle pairs, and pairs that cannot face, or are farther than a
@@ -494,7 +498,7 @@ class _FacingClusters:
             # normals: angle between n_p and the cluster's normals in [theta - cone, theta + cone]
             theta = np.arccos(np.clip(Ng @ mean.T, -1.0, 1.0))
             facing = math.acos(FACING_COSINE)
-            n_all, n_none = theta - cone > facing, theta + cone <= facing
+            n_all, n_none = theta - cone > facing, theta + cone < facing     # facing: n_p.n_s <= cos(120°)
             # (c_s - X_p).n_p > 0: range of c_s.n_p over the box
             box_lo = np.einsum("pk,tk->pt", np.maximum(Ng, 0.0), box[:, 0]) + np.einsum("pk,tk->pt", np.minimum(Ng, 0.0), box[:, 1])
             box_hi = np.einsum("pk,tk->pt", np.maximum(Ng, 0.0), box[:, 1]) + np.einsum("pk,tk->pt", np.minimum(Ng, 0.0), box[:, 0])
