@@ -185,3 +185,27 @@ def test_gap_of_state_gathers_the_ranks_nodes(box_grid):
     mine = np.arange(keys.size) % comm.size == comm.rank
     gap = s.gap_of_state(comm, keys[mine], values[mine])
     assert gap.value == pytest.approx(0.05, abs=1e-12) and gap.value == s.gap(u).value
+
+
+@pytest.mark.parametrize("cell", CELLS)
+def test_facing_clusters_equal_every_pair(box_grid, cell):
+    """The cluster search for facing surfaces of the own body (pruned by bounds) gives the distance of
+    every node that the loop over all its node-triangle pairs gives, on a C bent out of shape."""
+    from dolfinx_sfvem.contact import FACING_COSINE
+    from dolfinx_sfvem.solid_surface import _facing_nearest
+    mesh = box_grid(np.linspace(0, 1, 11), np.linspace(0, 0.4, 5), np.linspace(0, 0.6, 13),
+                    lambda c: 2 if c[0] > 0.1 and 0.1 < c[2] < 0.5 else 1, cell)
+    s = surface(mesh)
+    X = s.X
+    u = 0.04 * np.stack([np.sin(5 * X[:, 2] + X[:, 1]), np.cos(4 * X[:, 0]) * X[:, 2], -X[:, 0] * np.sin(3 * X[:, 1])],
+                        axis=1)
+    u[:, 2] -= 0.25 * X[:, 0] * (X[:, 2] > 0.3)
+    x = X + u
+    assert len(s._facing[0].node_groups) > 4                   # several clusters: the pruning is at work
+    g, partner = np.full(s.n_nodes, np.inf), np.full(s.n_nodes, -1)
+    s._facing[0].nearest(x, g, partner, np.ones(s.n_nodes, dtype=bool))
+    g_all, partner_all = np.full(s.n_nodes, np.inf), np.full(s.n_nodes, -1)
+    _facing_nearest(np.arange(s.n_nodes), np.arange(s.triangles.shape[0]), x, X, s.node_normal, s.triangles,
+                    s.triangle_centre, s.triangle_normal, FACING_COSINE, 0, g_all, partner_all)
+    assert np.isfinite(g_all).sum() > 0.2 * s.n_nodes           # the C's inner faces: a quarter of the nodes
+    np.testing.assert_allclose(g, g_all, rtol=1e-12, atol=1e-14)
