@@ -171,7 +171,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     # the deformed solids
     plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
     plotter.add_mesh(solids, scalars="|u|", cmap="viridis", show_edges=True, edge_color="#404040",
-                     line_width=0.5, scalar_bar_args={**bar, "title": "displacement magnitude"})
+                     line_width=0.5, scalar_bar_args={**bar, "title": "displacement"})
     plotter.add_mesh(_grid(mesh, points, cells[solid]).extract_feature_edges(45.0), color="#909090", line_width=1)
     plotter.add_title(f"{prefix}: deformed solids (medium hidden)", font_size=14)
     plotter.view_isometric()
