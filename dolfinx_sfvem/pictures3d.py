@@ -120,7 +120,8 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
                       solid_tags: typing.Collection[int], surface=None, pressure: np.ndarray | None = None,
                       clip_origin: typing.Sequence[float] | None = None,
                       clip_normal: typing.Sequence[float] | None = None) -> list[pathlib.Path]:
-    """Render the pictures of one 3D state (module docstring) into ``out_dir``.
+    """Render the pictures of one 3D state (module docstring) into ``out_dir``; not collective (call it
+    on one rank, with the gathered mesh and displacement).
 
     Parameters
     ----------
