@@ -585,7 +585,8 @@ class ContactProblem:
               observers: typing.Mapping[str, Observer] | None = None,
               raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
               until: float = 1.0, adapt: Adaptivity | None = None,
-              pressure_at: typing.Iterable[float] = (), handle_signals: bool | None = None) -> Result:
+              pressure_at: typing.Iterable[float] = (), handle_signals: bool | None = None,
+              gamma_start: float | None = None) -> Result:
         """Follow the load path from load factor 0 (or the current one) to ``until``.
 
         Prescribed displacements and loads are ramped together by the load factor λ. The
@@ -642,6 +643,11 @@ class ContactProblem:
             at once); None (default): in a script's main thread, not in a Jupyter kernel, where
             Ctrl-C interrupts at once (:mod:`~dolfinx_sfvem.interrupt`). An interrupted path keeps
             its converged steps: the state is put back to the last one and the outputs written.
+        gamma_start
+            Continuation in the third medium's gamma (:mod:`~dolfinx_sfvem.gamma_continuation`):
+            every :class:`ThirdMedium` starts the path at this gamma, which falls log-linearly with
+            the load factor to the medium's own gamma at ``until``; for a very weak medium that
+            otherwise stalls or ends on an unstable state (docs/guide/medium.md). Default: off.
         """
         if self.solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
@@ -664,7 +670,8 @@ class ContactProblem:
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,
-                        until=until, adapt=adapt, pressure_at=pressure_at, handle_signals=handle_signals).run()
+                        until=until, adapt=adapt, pressure_at=pressure_at, handle_signals=handle_signals,
+                        gamma_start=gamma_start).run()
 
     def describe(self) -> dict:
         """The problem's identity for summary.json: ``method``, ``dofs``, ``discretization`` (the
