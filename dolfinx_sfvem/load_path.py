@@ -191,7 +191,8 @@ class LoadPath:
         constraints = p.constraints()
         p.disc.set_constraints(constraints.dofs)
         equilibrium = p.equilibrium()
-        parts = (equilibrium, SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix, p.linear_solver), p.x,
+        newton = SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix, p.linear_solver)
+        parts = (equilibrium, newton, p.x,
                  constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
         if self.continuation is None:
             return StepSolver(*parts)
