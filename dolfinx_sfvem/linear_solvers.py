@@ -19,16 +19,17 @@ LINEAR_SOLVERS: dict[str, dict[str, str]] = {
     "direct": {},
     "iterative": {
         "ksp_type": "gmres",
-        "ksp_gmres_restart": "200",
+        "ksp_gmres_restart": "100",
         "ksp_rtol": "1e-10",
         "ksp_max_it": "1000",
-        "pc_type": "gamg",
-        "pc_gamg_type": "agg",
-        "pc_gamg_agg_nsmooths": "1",
-        "pc_gamg_threshold": "0.01",
+        "pc_type": "mg",
+        "pc_mg_galerkin": "both",
         "mg_levels_ksp_type": "chebyshev",
         "mg_levels_pc_type": "jacobi",
         "mg_levels_ksp_max_it": "3",
+        "mg_coarse_ksp_type": "preonly",
+        "mg_coarse_pc_type": "cholesky",
+        "mg_coarse_pc_factor_mat_solver_type": "mumps",
     },
 }
 
@@ -85,3 +86,17 @@ def rigid_body_modes(x_nodes: np.ndarray, n_owned_nodes: int, create_vector: typ
         v.scale(1.0 / v.norm())
         basis.append(v)
     return PETSc.NullSpace().create(vectors=basis, comm=comm)
+
+
+def configure_ksp(ksp: PETSc.KSP, interpolation: PETSc.Mat) -> None:
+    """Make the preconditioner of ``ksp`` the two-level p-multigrid of the ``"iterative"`` preset:
+    the coarse space is the degree-1 one whose nodal values ``interpolation`` (n_fine x n_coarse,
+    block size d) maps to the unknowns.
+
+    Call it before ``ksp.setFromOptions()``, so that the levels read their options
+    (``mg_levels_*``, ``mg_coarse_*``) and options that choose another preconditioner win.
+    """
+    pc = ksp.getPC()
+    pc.setType(PETSc.PC.Type.MG)
+    pc.setMGLevels(2)
+    pc.setMGInterpolation(1, interpolation)
