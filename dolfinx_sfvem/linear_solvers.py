@@ -2,10 +2,16 @@
 
 ``"direct"`` (the default of :mod:`~dolfinx_sfvem.snes`) factorizes the tangent with MUMPS
 (LDLᵀ, which also gives its inertia: the negative pivots of every step). Its cost grows fast
-with the unknowns in 3D; ``"iterative"`` is GMRES preconditioned by PETSc's algebraic multigrid
-GAMG, which needs the near-nullspace of the operator: the rigid-body modes of the node positions
-(:func:`rigid_body_modes`, 3 in 2D, 6 in 3D). It reports no inertia. Which one to take at which
-size, and how the soft medium affects the iterations: docs/guide/solving.md.
+with the unknowns in 3D. ``"iterative"`` is GMRES preconditioned by a two-level p-multigrid:
+Chebyshev/Jacobi smoothing on the degree-2 unknowns and MUMPS on the Galerkin projection of the
+tangent onto the degree-1 space on the same mesh (the discretization's
+:meth:`~dolfinx_sfvem.discretization.Discretization.coarse_interpolation`, set by
+:func:`configure_ksp`). Algebraic multigrid on the whole tangent (GAMG) stagnates with a third
+medium: its regularization, a function of the second gradient, vanishes on the fields that are
+linear per element, so these are near-null in the medium and must be on the coarse level
+(docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Which one to take at which
+size: docs/guide/solving.md. The tangent carries the rigid-body near-nullspace
+(:func:`rigid_body_modes`, 3 in 2D, 6 in 3D) for a GAMG chosen by options.
 """
 from __future__ import annotations
 
