@@ -294,7 +294,7 @@ class VEMSpace:
             centroid = ((X + Xn) * cross[..., None]).sum(axis=1) / (3 * cross.sum(axis=1))[:, None]
             B = np.concatenate([np.ones((polys.size, 1, n)), X.transpose(0, 2, 1)], axis=1)  # (m, 3, n)
             rhs = np.concatenate([np.ones((polys.size, 1)), centroid], axis=1)
-            w = np.einsum("mij,mi->mj", B, np.linalg.solve(B @ B.transpose(0, 2, 1), rhs))
+            w = np.einsum("mij,mi->mj", B, np.linalg.solve(B @ B.transpose(0, 2, 1), rhs[..., None])[..., 0])
             rows.append(np.repeat(self.dofs[first[polys] + 2 * n], n))
             cols.append(verts.reshape(-1))
             vals.append(w.reshape(-1))
