@@ -262,7 +262,7 @@ class Discretization(abc.ABC):
 
     def coarse_interpolation(self) -> PETSc.Mat:
         """The interpolation of a degree-1 space on the mesh's vertices into the unknowns: an
-        assembled AIJ matrix (unknowns x 2 vertex nodes, block size 2) that reproduces every
+        assembled AIJ matrix (unknowns x d vertex nodes, block size d) that reproduces every
         linear displacement exactly; the coarse level of the ``"iterative"`` linear solver
         (:func:`~dolfinx_sfvem.linear_solvers.configure_ksp`)."""
         raise NotImplementedError(f"{type(self).__name__} has no degree-1 coarse space: use linear_solver='direct'")

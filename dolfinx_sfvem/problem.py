@@ -133,7 +133,8 @@ class ContactProblem:
     linear_solver
         ``"direct"`` (default: MUMPS LDLᵀ, with the tangent's negative pivots) or ``"iterative"``
         (GMRES + p-multigrid: MUMPS on the degree-1 coarse space, for large 3D problems; no
-        negative pivots; :mod:`~dolfinx_sfvem.linear_solvers`, docs/guide/solving.md); ``petsc_options`` and the command line win over it.
+        negative pivots; :mod:`~dolfinx_sfvem.linear_solvers`, docs/guide/solving.md);
+        ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default

@@ -273,7 +273,7 @@ class VEMSpace:
 
     def _coarse_weights(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(node, vertex node, weight) triplets of :meth:`coarse_interpolation` for the owned
-        nodes, each node's once (from the first local polygon that holds it)."""
+        nodes, each pair once (a node shared by polygons gets the same weights from each)."""
         mesh = self.polygon_mesh
         N = mesh.offsets[self.polygons + 1] - mesh.offsets[self.polygons]
         first = self.dof_offsets[:-1]
