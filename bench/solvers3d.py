@@ -62,7 +62,8 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
              f"medium compressed by up to 80 %), {machine}. Setup: factorization (direct) or multigrid setup; "
              "peak MB: the largest resident set of the process(es), summed over ranks (assembly included; "
              "'before' is the peak before the solver was made); error: relative 2-norm distance to the "
-             "direct solution of the same size.", "",
+             "direct solution of the same size. Timings as measured on a machine that other jobs shared "
+             "(compare rows of one run, not runs).", "",
              "| grid | unknowns | ranks | solver | setup s | iterations | s per solve | peak MB | before MB | error | neg. pivots |",
              "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in sorted(records, key=lambda r: (r["unknowns"], r["ranks"], r["solver"])):
