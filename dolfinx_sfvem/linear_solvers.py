@@ -2,10 +2,16 @@
 
 ``"direct"`` (the default of :mod:`~dolfinx_sfvem.snes`) factorizes the tangent with MUMPS
 (LDLᵀ, which also gives its inertia: the negative pivots of every step). Its cost grows fast
-with the unknowns in 3D; ``"iterative"`` is GMRES preconditioned by PETSc's algebraic multigrid
-GAMG, which needs the near-nullspace of the operator: the rigid-body modes of the node positions
-(:func:`rigid_body_modes`, 3 in 2D, 6 in 3D). It reports no inertia. Which one to take at which
-size, and how the soft medium affects the iterations: docs/guide/solving.md.
+with the unknowns in 3D. ``"iterative"`` is GMRES preconditioned by a two-level p-multigrid:
+Chebyshev/Jacobi smoothing on the degree-2 unknowns and MUMPS on the Galerkin projection of the
+tangent onto the degree-1 space on the same mesh (the discretization's
+:meth:`~dolfinx_sfvem.discretization.Discretization.coarse_interpolation`, set by
+:func:`configure_ksp`). Algebraic multigrid on the whole tangent (GAMG) stagnates with a third
+medium: its regularization, a function of the second gradient, vanishes on the fields that are
+linear per element, so these are near-null in the medium and must be on the coarse level
+(docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Which one to take at which
+size: docs/guide/solving.md. The tangent carries the rigid-body near-nullspace
+(:func:`rigid_body_modes`, 3 in 2D, 6 in 3D) for a GAMG chosen by options.
 """
 from __future__ import annotations
 
@@ -19,16 +25,17 @@ LINEAR_SOLVERS: dict[str, dict[str, str]] = {
     "direct": {},
     "iterative": {
         "ksp_type": "gmres",
-        "ksp_gmres_restart": "200",
+        "ksp_gmres_restart": "100",
         "ksp_rtol": "1e-10",
         "ksp_max_it": "1000",
-        "pc_type": "gamg",
-        "pc_gamg_type": "agg",
-        "pc_gamg_agg_nsmooths": "1",
-        "pc_gamg_threshold": "0.01",
+        "pc_type": "mg",
+        "pc_mg_galerkin": "both",
         "mg_levels_ksp_type": "chebyshev",
         "mg_levels_pc_type": "jacobi",
         "mg_levels_ksp_max_it": "3",
+        "mg_coarse_ksp_type": "preonly",
+        "mg_coarse_pc_type": "cholesky",
+        "mg_coarse_pc_factor_mat_solver_type": "mumps",
     },
 }
 
@@ -85,3 +92,17 @@ def rigid_body_modes(x_nodes: np.ndarray, n_owned_nodes: int, create_vector: typ
         v.scale(1.0 / v.norm())
         basis.append(v)
     return PETSc.NullSpace().create(vectors=basis, comm=comm)
+
+
+def configure_ksp(ksp: PETSc.KSP, interpolation: PETSc.Mat) -> None:
+    """Make the preconditioner of ``ksp`` the two-level p-multigrid of the ``"iterative"`` preset:
+    the coarse space is the degree-1 one whose nodal values ``interpolation`` (n_fine x n_coarse,
+    block size d) maps to the unknowns.
+
+    Call it before ``ksp.setFromOptions()``, so that the levels read their options
+    (``mg_levels_*``, ``mg_coarse_*``) and options that choose another preconditioner win.
+    """
+    pc = ksp.getPC()
+    pc.setType(PETSc.PC.Type.MG)
+    pc.setMGLevels(2)
+    pc.setMGInterpolation(1, interpolation)

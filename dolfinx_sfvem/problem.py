@@ -161,8 +161,9 @@ class ContactProblem:
         ``-<prefix>snes_monitor`` (default ``tmc_``), unprefixed ones never do.
     linear_solver
         ``"direct"`` (default: MUMPS LDLᵀ, with the tangent's negative pivots) or ``"iterative"``
-        (GMRES + GAMG with the rigid-body near-nullspace, for large 3D problems;
-        :mod:`~dolfinx_sfvem.linear_solvers`); ``petsc_options`` and the command line win over it.
+        (GMRES + p-multigrid: MUMPS on the degree-1 coarse space, for large 3D problems; no
+        negative pivots; :mod:`~dolfinx_sfvem.linear_solvers`, docs/guide/solving.md);
+        ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default

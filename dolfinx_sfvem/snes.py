@@ -50,7 +50,7 @@ from petsc4py import PETSc
 from . import _compat
 from .discretization import AssemblyInfo
 from .equilibrium import Equilibrium
-from .linear_solvers import linear_solver_options, rigid_body_modes
+from .linear_solvers import configure_ksp, linear_solver_options, rigid_body_modes
 
 #: options prefix of a problem's solvers unless the user gives another
 DEFAULT_PREFIX = "tmc_"
@@ -242,8 +242,10 @@ class SNESNewton:
         Options prefix of the SNES, KSP and PC.
     linear_solver
         A preset of :data:`~dolfinx_sfvem.linear_solvers.LINEAR_SOLVERS` over the defaults
-        (``"direct"``: MUMPS; ``"iterative"``: GMRES + GAMG); the command line and ``options``
-        win over it. The tangent always carries the rigid-body near-nullspace that GAMG uses.
+        (``"direct"``: MUMPS; ``"iterative"``: GMRES + p-multigrid over the discretization's
+        degree-1 coarse space, :meth:`Discretization.coarse_interpolation`); the command line and
+        ``options`` win over it. The tangent always carries the rigid-body near-nullspace (for
+        GAMG, chosen by options).
     """
 
     def __init__(self, equilibrium: Equilibrium, options: Options | None = None, prefix: str = DEFAULT_PREFIX,
@@ -278,9 +280,11 @@ class SNESNewton:
         self.options = dict(options or {})
         self.linear_solver = linear_solver
         self.defaults = {**DEFAULT_PETSC_OPTIONS, **linear_solver_options(linear_solver)}
-        if not equilibrium.symmetric and linear_solver == "direct":
-            self.options.setdefault("pc_type", "lu")
+        if not equilibrium.symmetric:            # LDLᵀ would be wrong: LU, for the tangent or the coarse level
+            self.options.setdefault("pc_type" if linear_solver == "direct" else "mg_coarse_pc_type", "lu")
         with prefixed_options(prefix, self.options, self.defaults) as scoped:
+            if PETSc.Options().getString(prefix + "pc_type", "") == PETSc.PC.Type.MG:
+                configure_ksp(self.ksp, disc.coarse_interpolation())
             snes.setFromOptions()
             self.scaled_atol = "snes_atol" not in scoped.given
             self.fallback = "snes_linesearch_type" not in scoped.given
