@@ -49,7 +49,7 @@ from . import _compat
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
-from .logs import quiet_compilers, say
+from .logs import say
 from .node_keys import sfvem_unknowns
 from .polygon_mesh import PolygonMesh, edge_key
 from .remesh import matched_triangulation, triangulate
@@ -70,8 +70,9 @@ _REFERENCE_VERTICES = {3: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), 4: ((0.0, 0.0), 
 
 
 def _form(form: ufl.Form) -> dolfinx.fem.Form:
-    """``dolfinx.fem.form`` without the compiler's chatter (:func:`~dolfinx_sfvem.logs.quiet_compilers`)."""
-    with quiet_compilers():
+    """``dolfinx.fem.form`` compiled in :func:`~dolfinx_sfvem._compat.compiling` (quietly, under the
+    cache directory's lock)."""
+    with _compat.compiling(form.ufl_domain().ufl_cargo().comm):
         return dolfinx.fem.form(form)
 
 
