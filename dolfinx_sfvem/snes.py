@@ -202,14 +202,18 @@ def state_failure(info: AssemblyInfo) -> list[str]:
     return why
 
 
+def reason_name(reason: int) -> str:
+    """PETSc's name of the SNES converged reason ``reason`` (``"DIVERGED_MAX_IT"``)."""
+    return next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
+                str(reason))
+
+
 def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
     state with diagnostics ``info`` is rejected."""
     why = []
     if reason <= 0:
-        name = next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
-                    str(reason))
-        why.append(f"SNES reason {reason} ({name})")
+        why.append(f"SNES reason {reason} ({reason_name(reason)})")
         stalled = reason in (PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
         if stalled and info.admissible and norms and atol > 0:
             why.append(_stall(norms, atol, roundoff))
@@ -273,6 +277,8 @@ class SNESNewton:
             self.options.setdefault("pc_type", "lu")
         with prefixed_options(prefix, self.options) as scoped:
             snes.setFromOptions()
+            #: the option names (without prefix) given on the command line or from Python
+            self.given = frozenset(scoped.given)
             self.scaled_atol = "snes_atol" not in scoped.given
             self.fallback = "snes_linesearch_type" not in scoped.given
         snes.setLineSearchPreCheck(self._unlift)
