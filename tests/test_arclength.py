@@ -87,12 +87,21 @@ def test_displacement_control_traces_the_same_curve(path):
     assert force.max() == pytest.approx(force_al[w_al < w_end].max(), rel=2e-3)
 
 
+def upper_limit(path: list[dict]) -> float:
+    """The upper limit load factor: the maximum of a cubic spline of the load factor against the
+    apex displacement between the neighbours of the path's highest point."""
+    w = np.array([s["loads"]["apex"]["displacement"] for s in path])
+    load = np.array([s["load"] for s in path])
+    top = int(np.argmax(load[:len(load) // 2]))
+    return float(scipy.interpolate.CubicSpline(w, load)(np.linspace(w[top - 1], w[top + 1], 2001)).max())
+
+
 def test_fem_limit_load_is_close(path):
-    """The P2 FEM on a matched triangulation finds the upper limit load within 5 % of the SFVEM's."""
+    """The P2 FEM on a matched triangulation finds the upper limit load within 1 % of the SFVEM's
+    on this coarse arch (measured: 0.55 %; on the snap-through demo's finer arch they agree to 6e-6,
+    tests/test_demo_snap_through.py)."""
     _, fem = snap("fem")
-    limit = max(s["load"] for s in path[:len(path) // 2])
-    limit_fem = max(s["load"] for s in fem[:len(fem) // 2])
-    assert limit_fem == pytest.approx(limit, rel=5e-2)
+    assert upper_limit(fem) == pytest.approx(upper_limit(path), rel=1e-2)
 
 
 def test_stop_criterion(path):
