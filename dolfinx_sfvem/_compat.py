@@ -12,8 +12,7 @@ kernel's argument count), never by comparing version strings. The rest of the pa
 - vector spaces, index maps and ghosted PETSc vectors (:func:`vector_function_space`,
   :func:`create_index_map`, :func:`create_petsc_vector`), ``atan2`` in UFL,
 - JIT compilation of a UFL expression into a C function and the call of that function from
-  Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`), and every
-  compile under the lock of DOLFINx's cache directory (:func:`compiling`),
+  Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`),
 - PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES domain errors), called
   through ctypes on the object handles, and option defaults that keep PETSc's behaviour
   (:data:`PETSC_OPTION_DEFAULTS`),
@@ -49,8 +48,7 @@ import dolfinx.jit
 import dolfinx.la
 import dolfinx.mesh
 
-from .compile_lock import compiler_lock
-from .logs import quiet_compilers
+from .compile_lock import compiling
 
 try:
     import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)
@@ -209,7 +207,7 @@ def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
 # --------------------------------------------------------------------------- spaces, vectors, UFL
 def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
     """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
-    with compiling(mesh.comm):                         # a new element is compiled on a cold cache
+    with compiling():                                  # a new element is compiled on a cold cache
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
             return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
         return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
@@ -217,7 +215,7 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
 
 def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
     """(2, 2) tensors constant in every cell (DG0)."""
-    with compiling(mesh.comm):
+    with compiling():
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
             return dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
         return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(2, 2))
@@ -263,22 +261,6 @@ def atan2(y: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
 
 
 # --------------------------------------------------------------------------- JIT
-def jit_cache_dir() -> str:
-    """DOLFINx's JIT cache directory (``$XDG_CACHE_HOME/fenics`` unless configured otherwise)."""
-    options = dolfinx.jit.get_options() if hasattr(dolfinx.jit, "get_options") else dolfinx.jit.get_parameters()
-    return str(options["cache_dir"])
-
-
-@contextlib.contextmanager
-def compiling(comm: MPI.Comm):
-    """Context of every JIT compile of the package: the compilers' chatter kept off the console
-    (:func:`~dolfinx_sfvem.logs.quiet_compilers`) and, on rank 0 of ``comm`` (the rank DOLFINx
-    compiles on), the inter-process lock of the cache directory
-    (:func:`~dolfinx_sfvem.compile_lock.compiler_lock`)."""
-    with quiet_compilers(), compiler_lock(jit_cache_dir(), hold=comm.rank == 0):
-        yield
-
-
 def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr):
     """Compile a spatially constant UFL expression of ``ufl.Constant`` s with FFCx.
 
@@ -297,7 +279,7 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
         nopython code) and the compiled module (keep it alive as long as the function is used).
     """
     point = np.zeros((1, 2))
-    with compiling(comm):
+    with compiling():
         compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
     tabulate = compiled.tabulate_tensor_float64
     prototype = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * len(module.ffi.typeof(tabulate).args))
@@ -471,7 +453,7 @@ class CompiledExpression:
     """A UFL expression compiled for evaluation at fixed reference points of the cells."""
 
     def __init__(self, expression: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64]):
-        with compiling(mesh.comm):
+        with compiling():
             self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
         self._mesh_argument = (mesh,) if _EVAL_TAKES_MESH else ()
         self._n_points = points.shape[0]

@@ -18,15 +18,21 @@ A compile interrupted by something FFCx does not catch (Ctrl-C: ``KeyboardInterr
 ``.c`` file behind without ``.c.cached``; every later run would time out on it. The lock's holder
 renames the ``.c`` files it started and did not finish to ``.c.failed``, as FFCx does on errors.
 
-In an MPI job DOLFINx compiles on rank 0, then the other ranks load the module (its
-``mpi_jit_decorator``): only rank 0 takes the lock (``hold``), the others wait for it inside
-DOLFINx's collective; a lock taken on every rank would deadlock (a rank > 0 holding it in the
-collective while rank 0 waits for it).
+:func:`locked_compiles` applies the lock to FFCx's JIT entry points (``compile_forms``,
+``compile_expressions``, ``compile_elements``, as DOLFINx calls them, with their ``cache_dir``)
+while the package compiles, so every rank takes it around its own compile or cache load only. In
+an MPI job DOLFINx compiles on rank 0 and then lets the other ranks load the module (its
+``mpi_jit_decorator``); that load is a compile of its own when a rank's form has another signature
+than rank 0's, which UFL gives the FEM's residual and tangent forms in some processes (the same
+form, its terms in another order: the module names differ between processes and between the ranks
+of one job, docs/notes/2026-11-26-concurrent-starts.md). A lock held across DOLFINx's collective
+instead would deadlock (a rank holding it while rank 0 waits for it).
 """
 from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import logging
 import os
 import pathlib
@@ -34,7 +40,9 @@ import threading
 import time
 import typing
 
-from .logs import say
+import ffcx.codegeneration.jit
+
+from .logs import quiet_compilers, say
 
 log = logging.getLogger(__name__)
 
@@ -48,23 +56,66 @@ _held_guard = threading.Lock()
 
 
 @contextlib.contextmanager
-def compiler_lock(cache_dir: str | os.PathLike, hold: bool = True) -> typing.Iterator[None]:
-    """Hold the cache directory's compile lock for the body (nothing if not ``hold``).
+def compiling() -> typing.Iterator[None]:
+    """Context of every JIT compile of the package: the compilers' chatter kept off the console
+    (:func:`~dolfinx_sfvem.logs.quiet_compilers`) and each rank's compile under the inter-process
+    lock of its cache directory (:func:`locked_compiles`)."""
+    with quiet_compilers(), locked_compiles():
+        yield
+
+
+#: FFCx's JIT entry points that DOLFINx calls (those the installed FFCx has)
+_ENTRY_POINTS = tuple(name for name in ("compile_forms", "compile_expressions", "compile_elements")
+                      if hasattr(ffcx.codegeneration.jit, name))
+#: how many :func:`locked_compiles` are active, and FFCx's own entry points while any is
+_active = {"depth": 0, "originals": {}}
+
+
+@contextlib.contextmanager
+def locked_compiles() -> typing.Iterator[None]:
+    """While active, FFCx's JIT entry points run under :func:`compiler_lock` of their
+    ``cache_dir`` (none without one: FFCx then compiles in a fresh temporary directory).
+    Re-entrant; FFCx's functions are restored when the outermost one ends."""
+    with _held_guard:
+        if not _active["depth"]:
+            for name in _ENTRY_POINTS:
+                _active["originals"][name] = original = getattr(ffcx.codegeneration.jit, name)
+                setattr(ffcx.codegeneration.jit, name, _under_lock(original))
+        _active["depth"] += 1
+    try:
+        yield
+    finally:
+        with _held_guard:
+            _active["depth"] -= 1
+            if not _active["depth"]:
+                for name, original in _active["originals"].items():
+                    setattr(ffcx.codegeneration.jit, name, original)
+
+
+def _under_lock(compile_function: typing.Callable) -> typing.Callable:
+    """``compile_function`` under the lock of the ``cache_dir`` it is given."""
+    @functools.wraps(compile_function)
+    def locked(*args, **kwargs):
+        if kwargs.get("cache_dir") is None:
+            return compile_function(*args, **kwargs)
+        with compiler_lock(kwargs["cache_dir"]):
+            return compile_function(*args, **kwargs)
+    return locked
+
+
+@contextlib.contextmanager
+def compiler_lock(cache_dir: str | os.PathLike) -> typing.Iterator[None]:
+    """Hold the cache directory's compile lock for the body.
 
     Parameters
     ----------
     cache_dir
         FFCx's cache directory (created if missing).
-    hold
-        Take the lock; False on the ranks > 0 of a DOLFINx compile (module docstring).
 
     Re-entrant within a process. On an exception in the body, the ``.c`` files of the cache
     directory that were created while the lock was held and have no ``.c.cached`` are renamed
     to ``.c.failed`` (interrupted compiles).
     """
-    if not hold:
-        yield
-        return
     path = pathlib.Path(cache_dir) / LOCK_NAME
     with _held_guard:
         depth = _held.get(path, 0)

@@ -46,6 +46,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 
 from . import _compat
+from .compile_lock import compiling
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
@@ -70,9 +71,9 @@ _REFERENCE_VERTICES = {3: ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), 4: ((0.0, 0.0), 
 
 
 def _form(form: ufl.Form) -> dolfinx.fem.Form:
-    """``dolfinx.fem.form`` compiled in :func:`~dolfinx_sfvem._compat.compiling` (quietly, under the
-    cache directory's lock)."""
-    with _compat.compiling(form.ufl_domain().ufl_cargo().comm):
+    """``dolfinx.fem.form`` compiled in :func:`~dolfinx_sfvem.compile_lock.compiling` (quietly, under
+    the cache directory's lock)."""
+    with compiling():
         return dolfinx.fem.form(form)
 
 

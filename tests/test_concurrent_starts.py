@@ -47,7 +47,7 @@ def test_runs_started_together_on_an_empty_cache_all_finish(tmp_path):
     processes = {name: start(name, method, ranks, tmp_path, env) for name, (method, ranks) in RUNS.items()}
     finished = {name: (p.communicate(timeout=900), p.returncode) for name, p in processes.items()}
     for name, ((out, err), code) in finished.items():
-        assert code == 0, f"{name} exited with {code}:\n{err[-4000:]}"
+        assert code == 0, f"{name} exited with {code}:\n{out[-2000:]}\n{err[-4000:]}"
         assert "load reached 1 of 1 | converged: yes" in out, f"{name} printed no result:\n{out}"
     # the same run gives the same answer whichever process compiled its forms
     force = {name: tip_force(tmp_path / name) for name in RUNS}
