@@ -401,9 +401,7 @@ class _Bordered:
         reason = self.newton.ksp.getConvergedReason()
         if reason >= 0:
             return ""
-        name = next((k for k, v in vars(PETSc.KSP.ConvergedReason).items() if v == reason and not k.startswith("_")),
-                    str(reason))
-        return f"linear solve failed (KSP reason {reason}, {name})"
+        return f"linear solve failed (KSP reason {reason}, {reason_name(reason, PETSc.KSP.ConvergedReason)})"
 
     def destroy(self) -> None:
         for v in (self.R, self.f, self.a, self.b, self.rhs_R, self.rhs_f):

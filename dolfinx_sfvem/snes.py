@@ -202,10 +202,10 @@ def state_failure(info: AssemblyInfo) -> list[str]:
     return why
 
 
-def reason_name(reason: int) -> str:
-    """PETSc's name of the SNES converged reason ``reason`` (``"DIVERGED_MAX_IT"``)."""
-    return next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
-                str(reason))
+def reason_name(reason: int, reasons: type = PETSc.SNES.ConvergedReason) -> str:
+    """PETSc's name of the converged reason ``reason`` (``"DIVERGED_MAX_IT"``) of SNES, or of
+    another solver's ``reasons`` (``PETSc.KSP.ConvergedReason``)."""
+    return next((k for k, v in vars(reasons).items() if v == reason and not k.startswith("_")), str(reason))
 
 
 def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:

@@ -155,9 +155,9 @@ sys.exit(_common.exit_code(main))
 """)
     command = [*mpi_launcher.command(2), sys.executable, str(script)]
     # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
-    proc = subprocess.run(command, capture_output=True, text=True, timeout=120, env=dict(os.environ))
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=dict(os.environ))
     assert proc.returncode != 0
-    assert f"rank 1 of 2: error: RuntimeError in {script}:8 (main): only here" in proc.stderr
+    assert f"rank 1 of 2: error: RuntimeError in {script}:8 (main): only here" in proc.stderr, proc.stdout + proc.stderr
 
 
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
