@@ -28,8 +28,8 @@ named quantity of the step records passes a value (``stop``), or after ``max_ste
 
 PETSc options: the bordered Newton iterations run outside SNES, on its linear solver (every KSP
 and PC option applies) and with its tolerances ``snes_rtol``, ``snes_atol`` (default: the round-off
-level, as in :mod:`~dolfinx_sfvem.snes`) and ``snes_max_it``; they call the SNES monitors
-(``snes_monitor``) with each residual norm and take full steps. The other SNES options (line
+level, as in :mod:`~dolfinx_sfvem.snes`) and ``snes_max_it``; with ``snes_monitor`` they print
+each residual norm as SNES's monitor does, and they take full steps. The other SNES options (line
 search, ``snes_type``, ``snes_stol``, ...) apply to the landing on ``until`` only, which is a SNES
 solve; a run given one of them says so (:data:`BORDERED_SNES_OPTIONS`). An attempt's
 :class:`~dolfinx_sfvem.snes.NewtonResult` carries the SNES converged reason that describes its
@@ -58,7 +58,7 @@ from .stepping import Attempt, Control
 log = logging.getLogger(__name__)
 
 #: the SNES options (without prefix) that the bordered Newton iterations read (module docstring)
-BORDERED_SNES_OPTIONS = frozenset({"snes_rtol", "snes_atol", "snes_max_it", "snes_monitor", "snes_monitor_short"})
+BORDERED_SNES_OPTIONS = frozenset({"snes_rtol", "snes_atol", "snes_max_it", "snes_monitor"})
 #: SNES's converged reasons
 REASON = PETSc.SNES.ConvergedReason
 
@@ -244,7 +244,7 @@ class ArcLength(Control):
             x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             norm, info = bordered.residual(x, load)
             norms.append(norm)
-            bordered.newton.snes.monitor(iterations, norm)
+            bordered.monitor(iterations, norm)
             atol = bordered.atol(x, load)
             if not info.admissible:
                 reason, why = REASON.DIVERGED_FUNCTION_DOMAIN, "; ".join(state_failure(info))
@@ -339,6 +339,7 @@ class _Bordered:
         rtol, atol, _, max_it = newton.snes.getTolerances()
         self.rtol, self.given_atol, self.max_it = rtol, atol, max_it
         self._stiffness = 0.0
+        self._monitor = "snes_monitor" in newton.given
         elsewhere = sorted(name for name in newton.given if name.startswith("snes_") and name not in BORDERED_SNES_OPTIONS)
         if elsewhere and newton.comm.rank == 0:
             warn(log, f"arc length: the options {', '.join('-' + newton.prefix + n for n in elsewhere)} do not apply to "
@@ -395,6 +396,12 @@ class _Bordered:
         """b with K b = f̂ (lifted; constrained rows: the prescribed values at λ = 1)."""
         self.newton.ksp.solve(self.rhs_f, self.b)
         return self.b
+
+    def monitor(self, iteration: int, norm: float) -> None:
+        """With ``snes_monitor``: the residual norm in the line SNES's default monitor prints (not
+        SNESMonitor itself, which PETSc 3.25 cannot call outside a solve)."""
+        if self._monitor:
+            PETSc.Sys.Print(f"{iteration:3d} SNES Function norm {norm:14.12e}", comm=self.newton.comm)
 
     def linear_solve_failure(self) -> str:
         """Why the last linear solve failed ("" if it did not): the KSP's converged reason."""
