@@ -24,7 +24,10 @@ Exit codes
 ----------
 0 the load path was completed; 1 it was not (the converged steps are kept in the output
 directory); 2 invalid input (argparse errors, or a ``ValueError`` / ``SolveFailed`` raised by
-the library), reported on stderr without a traceback.
+the library), reported on stderr without a traceback; 3 any other exception, reported on stderr
+with its traceback and a last line naming it and where it was raised (in a parallel run by
+the ranks that raised it, and then every rank is ended: ``MPI_Abort``, as a rank that raised
+alone would leave the others waiting in a collective call forever).
 """
 from __future__ import annotations
 
@@ -33,6 +36,7 @@ import csv
 import math
 import pathlib
 import sys
+import traceback
 import typing
 
 import numpy as np
@@ -336,12 +340,33 @@ def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
 
 
+#: exit code of a run ended by an unexpected exception (module docstring)
+CRASHED = 3
+
+
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
               argv: typing.Sequence[str] | None = None) -> int:
-    """Run a demo's ``main(argv)``; expected failures become a message on stderr and exit code 2."""
+    """Run a demo's ``main(argv)``; expected failures become a message on stderr and exit code 2,
+    any other exception its traceback and :func:`crash_message` on stderr and exit code
+    :data:`CRASHED` (in parallel through ``MPI_Abort``: every rank ends)."""
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
         if MPI.COMM_WORLD.rank == 0:
             print(f"error: {err}", file=sys.stderr, flush=True)
         return 2
+    except Exception as err:
+        traceback.print_exc()
+        print(crash_message(err, MPI.COMM_WORLD), file=sys.stderr, flush=True)
+        if MPI.COMM_WORLD.size > 1:
+            MPI.COMM_WORLD.Abort(CRASHED)
+        return CRASHED
+
+
+def crash_message(err: BaseException, comm: MPI.Comm) -> str:
+    """``error: <type> in <file>:<line> (<function>): <message>``, where ``err`` was raised (its
+    innermost frame), prefixed by the rank in a parallel run."""
+    frames = traceback.extract_tb(err.__traceback__)
+    where = f" in {frames[-1].filename}:{frames[-1].lineno} ({frames[-1].name})" if frames else ""
+    rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
+    return f"{rank}error: {type(err).__name__}{where}: {err}"

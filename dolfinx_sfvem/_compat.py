@@ -48,7 +48,7 @@ import dolfinx.jit
 import dolfinx.la
 import dolfinx.mesh
 
-from .logs import quiet_compilers
+from .compile_lock import compiling
 
 try:
     import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)
@@ -208,7 +208,7 @@ def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
 # --------------------------------------------------------------------------- spaces, vectors, UFL
 def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
     """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
-    with quiet_compilers():                            # a new element is compiled on a cold cache
+    with compiling():                                  # a new element is compiled on a cold cache
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
             return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
         return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
@@ -228,7 +228,7 @@ def interpolation_matrix(V_from: dolfinx.fem.FunctionSpace, V_to: dolfinx.fem.Fu
 def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
     """(d, d) tensors constant in every cell (DG0), d the geometric dimension."""
     d = mesh.geometry.dim
-    with quiet_compilers():
+    with compiling():
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
             return dolfinx.fem.functionspace(mesh, ("DG", 0, (d, d)))
         return dolfinx.fem.TensorFunctionSpace(mesh, ("DG", 0), shape=(d, d))
@@ -292,7 +292,7 @@ def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr)
         nopython code) and the compiled module (keep it alive as long as the function is used).
     """
     point = np.zeros((1, 2))
-    with quiet_compilers():
+    with compiling():
         compiled, module, _ = dolfinx.jit.ffcx_jit(comm, (expression, point))
     tabulate = compiled.tabulate_tensor_float64
     prototype = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * len(module.ffi.typeof(tabulate).args))
@@ -471,7 +471,7 @@ class CompiledExpression:
     """A UFL expression compiled for evaluation at fixed reference points of the cells."""
 
     def __init__(self, expression: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64]):
-        with quiet_compilers():
+        with compiling():
             self._expression = dolfinx.fem.Expression(expression, np.ascontiguousarray(points, dtype=np.float64))
         self._mesh_argument = (mesh,) if _EVAL_TAKES_MESH else ()
         self._n_points = points.shape[0]

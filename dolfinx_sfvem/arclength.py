@@ -25,9 +25,22 @@ folded element, overlapping solids) is retried with half the arc length.
 
 A path ends when λ reaches ``until`` (the last step is landed on it by Newton at fixed λ), when a
 named quantity of the step records passes a value (``stop``), or after ``max_steps`` steps.
+
+PETSc options: the bordered Newton iterations run outside SNES, on its linear solver (every KSP
+and PC option applies) and with its tolerances ``snes_rtol``, ``snes_atol`` (default: the round-off
+level, as in :mod:`~dolfinx_sfvem.snes`) and ``snes_max_it``; with ``snes_monitor`` they print
+each residual norm as SNES's monitor does, and they take full steps. The other SNES options (line
+search, ``snes_type``, ``snes_stol``, ...) apply to the landing on ``until`` only, which is a SNES
+solve; a run given one of them says so (:data:`BORDERED_SNES_OPTIONS`). An attempt's
+:class:`~dolfinx_sfvem.snes.NewtonResult` carries the SNES converged reason that describes its
+end: ``CONVERGED_FNORM_ABS`` / ``_RELATIVE``, ``DIVERGED_FUNCTION_DOMAIN`` (J <= 0, a fold),
+``DIVERGED_FNORM_NAN``, ``DIVERGED_LINEAR_SOLVE``, ``DIVERGED_MAX_IT``, and
+``DIVERGED_LINE_SEARCH`` when the constraint has no real root (the step length along the
+bordered direction cannot be chosen: the arc length is too long there).
 """
 from __future__ import annotations
 
+import logging
 import math
 import time
 import typing
@@ -36,10 +49,18 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .logs import warn
 from .run_summary import StepRecord
-from .snes import NewtonResult, SolveFailed, negative_pivots, state_failure
+from .snes import NewtonResult, SolveFailed, negative_pivots, reason_name, state_failure
 from .step_solver import StepSolver
 from .stepping import Attempt, Control
+
+log = logging.getLogger(__name__)
+
+#: the SNES options (without prefix) that the bordered Newton iterations read (module docstring)
+BORDERED_SNES_OPTIONS = frozenset({"snes_rtol", "snes_atol", "snes_max_it", "snes_monitor"})
+#: SNES's converged reasons
+REASON = PETSc.SNES.ConvergedReason
 
 
 
@@ -207,6 +228,9 @@ class ArcLength(Control):
         bordered.residual(x, load)
         pivots = bordered.factorize(x, load)
         b = bordered.solve_load()
+        why = bordered.linear_solve_failure()
+        if why:                              # at the converged start: a shorter arc length cannot help
+            raise SolveFailed(f"arc length: the tangent at load factor {self.load:.6g}: {why}")
         if self.ds0 == 0.0:                  # the first step: Δλ = load_step sets Δs_0 and c
             self.scale = b.dot(b)
             self.ds = self.ds0 = self.load_step * math.sqrt(self.scale * (1.0 + self.psi ** 2))
@@ -217,24 +241,33 @@ class ArcLength(Control):
         load += dload
         norms: list[float] = []
         info = None
-        converged, why, iterations = False, "", 0
-        for iterations in range(bordered.max_it + 1):
+        reason, iterations = REASON.CONVERGED_ITERATING, 0
+        while True:
             x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             norm, info = bordered.residual(x, load)
             norms.append(norm)
+            bordered.monitor(iterations, norm)
+            atol = bordered.atol(x, load)
             if not info.admissible:
-                why = "; ".join(state_failure(info))
+                reason, why = REASON.DIVERGED_FUNCTION_DOMAIN, "; ".join(state_failure(info))
+            elif not math.isfinite(norm):
+                reason, why = REASON.DIVERGED_FNORM_NAN, "non-finite residual"
+            elif norm <= max(atol, bordered.rtol * norms[0]):
+                reason = REASON.CONVERGED_FNORM_ABS if norm <= atol else REASON.CONVERGED_FNORM_RELATIVE
+            elif iterations == bordered.max_it:
+                reason, why = REASON.DIVERGED_MAX_IT, f"no convergence in {bordered.max_it} iterations (residual {norm:.3e})"
+            if reason:
                 break
-            if norm <= max(bordered.atol(x, load), bordered.rtol * norms[0]):
-                converged = True
-                break
-            if iterations == bordered.max_it:
-                why = f"no convergence in {bordered.max_it} iterations (residual {norm:.3e})"
-                break
+            iterations += 1
             pivots = bordered.factorize(x, load)
             a, b = bordered.solve_residual(), bordered.solve_load()
+            why = bordered.linear_solve_failure()
+            if why:
+                reason = REASON.DIVERGED_LINEAR_SOLVE
+                break
             delta = _constraint_root(du, a, b, dload, self.psi ** 2 * self.scale, self.ds)
             if delta is None:
+                reason = REASON.DIVERGED_LINE_SEARCH
                 why = "the arc-length constraint has no real root (the arc length is too long here)"
                 break
             du.axpy(1.0, a)
@@ -244,10 +277,12 @@ class ArcLength(Control):
             x.axpy(delta, b)
             load += delta
         solver.newton.forget_force()
-        result = NewtonResult(converged, 2 if converged else -1, iterations, norms,
+        converged = reason > 0
+        result = NewtonResult(converged, int(reason), iterations, norms,
                               info.min_J if info else math.nan, info.min_J_polygon if info else -1,
                               info.min_J_tag if info else -1, info.folded if info else 0, info.kinked if info else 0,
-                              "" if converged else f"arc length: {why}", pivots)
+                              "" if converged else f"arc length: SNES reason {int(reason)} ({reason_name(reason)}): {why}",
+                              pivots)
         return solver.accept(result), load, du
 
     def _land(self, solver: StepSolver, start: PETSc.Vec, du: PETSc.Vec, load: float) -> tuple[NewtonResult, float]:
@@ -306,6 +341,12 @@ class _Bordered:
         rtol, atol, _, max_it = newton.snes.getTolerances()
         self.rtol, self.given_atol, self.max_it = rtol, atol, max_it
         self._stiffness = 0.0
+        self._monitor = "snes_monitor" in newton.given
+        elsewhere = sorted(name for name in newton.given if name.startswith("snes_") and name not in BORDERED_SNES_OPTIONS)
+        if elsewhere and newton.comm.rank == 0:
+            warn(log, f"arc length: the options {', '.join('-' + newton.prefix + n for n in elsewhere)} do not apply to "
+                      f"its bordered Newton iterations, only to the landing on the final load factor (they read "
+                      f"{', '.join(sorted(BORDERED_SNES_OPTIONS))} and every KSP/PC option)")
 
     def scales_anything(self) -> bool:
         """Whether λ scales a load or a non-zero prescribed displacement (collective)."""
@@ -357,6 +398,19 @@ class _Bordered:
         """b with K b = f̂ (lifted; constrained rows: the prescribed values at λ = 1)."""
         self.newton.ksp.solve(self.rhs_f, self.b)
         return self.b
+
+    def monitor(self, iteration: int, norm: float) -> None:
+        """With ``snes_monitor``: the residual norm in the line SNES's default monitor prints (not
+        SNESMonitor itself, which PETSc 3.25 cannot call outside a solve)."""
+        if self._monitor:
+            PETSc.Sys.Print(f"{iteration:3d} SNES Function norm {norm:14.12e}", comm=self.newton.comm)
+
+    def linear_solve_failure(self) -> str:
+        """Why the last linear solve failed ("" if it did not): the KSP's converged reason."""
+        reason = self.newton.ksp.getConvergedReason()
+        if reason >= 0:
+            return ""
+        return f"linear solve failed (KSP reason {reason}, {reason_name(reason, PETSc.KSP.ConvergedReason)})"
 
     def destroy(self) -> None:
         for v in (self.R, self.f, self.a, self.b, self.rhs_R, self.rhs_f):

@@ -48,10 +48,11 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 
 from . import _compat
+from .compile_lock import compiling
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
-from .logs import quiet_compilers, say
+from .logs import say
 from .node_keys import sfvem_unknowns
 from .cell_mesh import CELL_TYPES, CellMesh, gather_cells, reference_edges, reference_facets, reference_vertices
 from .polygon_mesh import PolygonMesh, edge_key
@@ -72,8 +73,9 @@ _EDGE_VERTICES = {cell: tuple(map(tuple, reference_edges(cell))) for cell in CEL
 
 
 def _form(form: ufl.Form) -> dolfinx.fem.Form:
-    """``dolfinx.fem.form`` without the compiler's chatter (:func:`~dolfinx_sfvem.logs.quiet_compilers`)."""
-    with quiet_compilers():
+    """``dolfinx.fem.form`` compiled in :func:`~dolfinx_sfvem.compile_lock.compiling` (quietly, under
+    the cache directory's lock)."""
+    with compiling():
         return dolfinx.fem.form(form)
 
 

@@ -203,14 +203,18 @@ def state_failure(info: AssemblyInfo) -> list[str]:
     return why
 
 
+def reason_name(reason: int, reasons: type = PETSc.SNES.ConvergedReason) -> str:
+    """PETSc's name of the converged reason ``reason`` (``"DIVERGED_MAX_IT"``) of SNES, or of
+    another solver's ``reasons`` (``PETSc.KSP.ConvergedReason``)."""
+    return next((k for k, v in vars(reasons).items() if v == reason and not k.startswith("_")), str(reason))
+
+
 def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
     state with diagnostics ``info`` is rejected."""
     why = []
     if reason <= 0:
-        name = next((k for k, v in vars(PETSc.SNES.ConvergedReason).items() if v == reason and not k.startswith("_")),
-                    str(reason))
-        why.append(f"SNES reason {reason} ({name})")
+        why.append(f"SNES reason {reason} ({reason_name(reason)})")
         stalled = reason in (PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
         if stalled and info.admissible and norms and atol > 0:
             why.append(_stall(norms, atol, roundoff))
@@ -286,6 +290,8 @@ class SNESNewton:
             if PETSc.Options().getString(prefix + "pc_type", "") == PETSc.PC.Type.MG:
                 configure_ksp(self.ksp, disc.coarse_interpolation())
             snes.setFromOptions()
+            #: the option names (without prefix) given on the command line or from Python
+            self.given = frozenset(scoped.given)
             self.scaled_atol = "snes_atol" not in scoped.given
             self.fallback = "snes_linesearch_type" not in scoped.given
         snes.setLineSearchPreCheck(self._unlift)

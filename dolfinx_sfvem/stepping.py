@@ -178,8 +178,9 @@ class LoadStepping(Control):
 
     def describe(self) -> dict[str, typing.Any]:
         return {"control": "load stepping", "steps": self.steps, "adaptive": self.adaptive,
-                "predictor": self.predictor, "max_increment": self.max_increment,
-                "target_iterations": self.target_iterations}
+                "predictor": self.predictor, "min_increment": self.min_increment,
+                "max_increment": self.max_increment, "target_iterations": self.target_iterations,
+                "grow_after": self.grow_after}
 
     def forget_history(self) -> None:
         if self.previous is not None:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
+import os
 import pathlib
 import subprocess
 import sys
 
 import pytest
 
+from dolfinx_sfvem import mpi_launcher
 from dolfinx_sfvem.run_summary import read_summary
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
@@ -100,11 +102,17 @@ def test_petsc_options_reach_snes(tmp_path):
     assert len(csv_rows(tmp_path / "load_path.csv")) == len(summary.converged_steps)
 
 
-@pytest.mark.parametrize("error", ["ValueError", "SolveFailed"])
-def test_expected_errors_become_exit_code_2(capsys, error):
+def load_common():
+    """demos/_common.py as a module."""
     spec = importlib.util.spec_from_file_location("_common", DEMOS / "_common.py")
     common = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(common)
+    return common
+
+
+@pytest.mark.parametrize("error", ["ValueError", "SolveFailed"])
+def test_expected_errors_become_exit_code_2(capsys, error):
+    common = load_common()
     exception = ValueError if error == "ValueError" else common.sf.SolveFailed
 
     def main(argv):
@@ -112,6 +120,44 @@ def test_expected_errors_become_exit_code_2(capsys, error):
 
     assert common.exit_code(main) == 2
     assert capsys.readouterr().err.strip() == "error: polygon 7: self-intersection"
+
+
+def test_an_unexpected_error_ends_with_what_and_where(capsys):
+    """Any other exception: its traceback, then a last line naming it and the line that raised it,
+    and exit code 3."""
+    common = load_common()
+
+    def main(argv):
+        return {}["tip"]
+
+    assert common.exit_code(main) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("Traceback")
+    assert err[-1] == f"error: KeyError in {__file__}:{main.__code__.co_firstlineno + 1} (main): 'tip'"
+
+
+def test_an_error_on_one_rank_ends_every_rank(tmp_path):
+    """A rank that raises while the other waits in a collective call ends the whole run (no hang)
+    with a non-zero exit code and the message of that rank."""
+    script = tmp_path / "one_rank_fails.py"
+    script.write_text(f"""import sys
+sys.path.insert(0, {str(DEMOS)!r})
+from mpi4py import MPI
+import _common
+
+def main(argv):
+    if MPI.COMM_WORLD.rank == 1:
+        raise RuntimeError("only here")
+    MPI.COMM_WORLD.barrier()
+    return 0
+
+sys.exit(_common.exit_code(main))
+""")
+    command = [*mpi_launcher.command(2), sys.executable, str(script)]
+    # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=dict(os.environ))
+    assert proc.returncode != 0
+    assert f"rank 1 of 2: error: RuntimeError in {script}:8 (main): only here" in proc.stderr, proc.stdout + proc.stderr
 
 
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):

@@ -187,3 +187,18 @@ def test_resume_in_the_middle_of_a_grown_increment(tmp_path):
     assert [s["newton_iterations"] for s in resumed.steps] == [s["newton_iterations"] for s in full.steps]
     np.testing.assert_allclose(resumed.steps[-1]["reaction"]["tip"], full.steps[-1]["reaction"]["tip"], rtol=1e-10)
     assert len(full.steps) < 20
+
+
+@pytest.mark.parametrize("setting, value", [("min_increment", 1 / 64), ("max_increment", 0.5), ("adaptive", False),
+                                            ("predictor", False), ("target_iterations", 4), ("grow_after", 3)])
+def test_every_setting_that_changes_the_path_is_described(setting, value):
+    """summary.json records the control's settings (``describe``): each one that changes the
+    attempts (the cut-back's floor, the growth after successes, ...) changes the description."""
+    assert LoadStepping(4, **{setting: value}).describe() != LoadStepping(4).describe()
+
+
+def test_resume_with_another_smallest_increment_is_refused(tmp_path):
+    """A resumed run keeps the stopped run's cut-back floor (default (1/2)/2^10)."""
+    strip().solve(control=LoadStepping(2), out=tmp_path)
+    with pytest.raises(ValueError, match=r"cannot resume.*control\.min_increment: saved 0\.00048828125, now 0\.001"):
+        strip().solve(control=LoadStepping(2, min_increment=1e-3), out=tmp_path, resume=True)
