@@ -320,11 +320,16 @@ class BodyForce(Load):
 
 @dataclass(frozen=True)
 class Traction(Load):
-    """Dead traction ``t`` (2,) per unit reference length on the boundary edges of ``where``."""
+    """Dead traction ``t`` (d,) per unit reference length (area in 3D) on the boundary edges
+    (faces) of ``where``."""
     where: Where
-    t: tuple[float, float]
+    t: tuple[float, ...]
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.BoundFaceTraction(self.name, disc, face_loads.loaded_facets(disc, self.where, self.name),
+                                                np.asarray(self.t, dtype=np.float64))
         return _BoundTraction(self.name, disc, boundary_edges(disc, self.where, self.name),
                               np.asarray(self.t, dtype=np.float64))
 
@@ -341,6 +346,10 @@ class Pressure(Load):
     follower: bool = True
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.BoundFacePressure(self.name, disc, face_loads.loaded_facets(disc, self.where, self.name),
+                                                float(self.p), self.follower)
         edges = boundary_edges(disc, self.where, self.name)
         return _BoundPressure(self.name, disc, edges, float(self.p), self.follower, chain_ends(disc, edges))
 
