@@ -35,7 +35,8 @@ import dolfinx.mesh
 
 from . import _compat
 from .discretization import Discretization
-from .loads import BoundLoad
+from .energy import VolumeWork
+from .loads import BoundLoad, _BoundCavityPressure
 from .logs import quiet_compilers
 
 #: the tag of the loaded facets in a load's facet tags
@@ -64,7 +65,7 @@ def exterior_facets(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
 def facet_normal_axes(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray:
     """Per facet the axis (0, 1, 2) it is normal to (a facet in a plane x = const is normal to
     axis 0), -1 for a facet off the coordinate planes."""
-    nodes = dolfinx.mesh.entities_to_geometry(mesh, mesh.topology.dim - 1, facets, False)
+    nodes = _compat.entity_geometry_nodes(mesh, mesh.topology.dim - 1, facets)
     x = mesh.geometry.x[nodes]
     extent = np.ptp(x, axis=1) if len(x) else np.zeros((0, 3))
     flat = extent <= 1e-10 * extent.max(axis=1, keepdims=True, initial=0.0)
@@ -221,3 +222,46 @@ def _largest_entry(load: BoundLoad) -> float:
     f = np.zeros((load.disc.n_local_nodes, 3))
     load.add_force(None, f)
     return load.comm.allreduce(float(np.abs(f).max(initial=0.0)), op=MPI.MAX)
+
+
+class BoundCavityPressure3D(_BoundCavityPressure):
+    """The energy term −λ p ∫ (J − 1) dΩ over a medium region of a 3D mesh; its faces on the mesh
+    boundary (``open_facets``, local) must lie in planes x, y or z = const (symmetry planes)."""
+
+    def __init__(self, name: str, disc: Discretization, term, p: float, open_facets: np.ndarray, axes: np.ndarray):
+        super().__init__(name, disc, term, p, np.empty((0, 3), dtype=np.int64))
+        fdim = disc.mesh.topology.dim - 1
+        #: per axis k, the local nodes on the open faces normal to it
+        self.open_nodes = [dolfinx.fem.locate_dofs_topological(disc.V, fdim, open_facets[axes == k]).astype(np.int64)
+                           for k in range(3)]
+
+    def check_constraints(self, constrained: np.ndarray) -> None:
+        """ValueError naming a node on an open face of the region whose displacement normal to the
+        face is not constrained."""
+        free = [(k, nodes[~constrained[3 * nodes + k]]) for k, nodes in enumerate(self.open_nodes)]
+        found = [(k, tuple(np.round(self.disc.x_nodes[nodes[0]], 12) + 0.0)) for k, nodes in free if nodes.size][:1]
+        found = [f for part in self.comm.allgather(found) for f in part]
+        if found:
+            k, x = found[0]
+            raise ValueError(f"cavity pressure {self.name!r}: region {self.term.tag} is not closed: its face through "
+                             f"the node {x} lies on the boundary of the mesh without u_{'xyz'[k]} fixed there (a "
+                             "symmetry plane closes a cavity only with its normal displacement fixed)")
+
+
+def bind_cavity_pressure(name: str, disc: Discretization, tag: int, p: float, uses_gradient: bool) -> BoundLoad:
+    """The cavity pressure of :class:`~dolfinx_sfvem.loads.CavityPressure` on a 3D mesh (collective)."""
+    mesh = disc.mesh
+    boundary = exterior_facets(mesh)
+    f2c = mesh.topology.connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    cells = np.array([f2c.links(f)[0] for f in boundary], dtype=np.int64)
+    open_facets = boundary[disc.cell_tag[cells] == tag] if cells.size else boundary
+    axes = facet_normal_axes(mesh, open_facets)
+    skew = [tuple(np.round(dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim - 1, open_facets[axes < 0][:1])[0],
+                           12) + 0.0)] if np.any(axes < 0) else []
+    skew = [s for part in disc.comm.allgather(skew) for s in part]
+    if skew:
+        raise ValueError(f"cavity pressure {name!r}: region {tag} is not closed: its face with midpoint {skew[0]} lies "
+                         "on the boundary of the mesh off the planes x, y, z = const (a cavity must be enclosed by "
+                         "other regions or by symmetry planes; use pressure() on an open boundary)")
+    term = disc.add_energy_term(tag, VolumeWork(p=0.0, uses_gradient=uses_gradient))
+    return BoundCavityPressure3D(name, disc, term, float(p), open_facets, axes)

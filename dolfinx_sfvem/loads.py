@@ -393,6 +393,9 @@ class CavityPressure(Load):
         if energy is None or not energy.is_medium:
             raise ValueError(f"cavity pressure {self.name!r}: region {self.tag} is not a third-medium region "
                              "(fill the cavity with a ThirdMedium and give its tag)")
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.bind_cavity_pressure(self.name, disc, self.tag, self.p, energy.uses_gradient)
         open_edges = np.empty((0, 3), dtype=np.int64)
         if open_boundary_edge(disc.output_mesh, self.tag) is not None:     # same answer on every rank
             open_edges = boundary_edges(disc, (self.tag,), self.name)

@@ -138,3 +138,50 @@ def test_thick_sphere_against_lame(follower):
     assert errors[1] < 0.06 and rate > 1.7, (errors, rate)
     # the work-conjugate displacement: the cavity's volume change (1/8), to first order 4π a² u_r / 8
     assert measured["displacement"] == pytest.approx(np.pi / 2 * fine, rel=0.02)
+
+
+def cube_cavity(tiny3d, with_medium: bool):
+    """[0, 2]³ of 2 x 2 x 2 hexahedra, symmetry planes x, y, z = 0; the cell [0, 1]³ is the
+    cavity: third medium (tag 2) or left out."""
+    points, cells = tiny3d.hex_grid(2, (2.0, 2.0, 2.0))
+    cavity = np.all(points[cells].mean(axis=1) < 1.0, axis=1)
+    tags = np.where(cavity, 2, 1)
+    if not with_medium:
+        used, cells = np.unique(cells[~cavity], return_inverse=True)
+        points, cells, tags = points[used], cells.reshape(-1, 8), tags[~cavity]
+    materials = {1: sf.Hyperelastic(K=K, mu=MU)}
+    if with_medium:
+        materials[2] = sf.ThirdMedium(mu=MU, gamma=1e-7, alpha_r=1e-8, regularization="huhu")
+    problem = sf.ContactProblem(CellMesh(points, cells, tags, "hexahedron"), materials, method="fem", verbose=False)
+    for axis in range(3):
+        problem.fix(lambda x, axis=axis: np.isclose(x[axis], 0.0), components=[axis], name="xyz"[axis] + "0")
+    return problem
+
+
+def test_cavity_pressure_equals_follower_pressure_on_the_cavity_walls(tiny3d):
+    """−p ∫ (J − 1) over a medium-filled cavity closed by symmetry planes and a follower pressure
+    on the walls of the empty cavity give the same state (to the medium's stiffness, gamma 1e-7)
+    and the same conjugate displacement: the cavity's volume change = the swept volume."""
+    p = 0.05
+    filled = cube_cavity(tiny3d, True)
+    cavity = filled.cavity_pressure(2, p)
+    empty = cube_cavity(tiny3d, False)
+    walls = empty.pressure(lambda x: np.all(x <= 1.0 + 1e-12, axis=0) & np.any(np.isclose(x, 1.0), axis=0), p)
+    results = [problem.solve(steps=2) for problem in (filled, empty)]
+    assert all(r.converged for r in results)
+    corner = [problem.displacement_at([[2.0, 2.0, 2.0], [1.0, 1.0, 1.0]]) for problem in (filled, empty)]
+    assert corner[0] == pytest.approx(corner[1], rel=1e-5)
+    assert corner[1][1][0] > 0.0                                   # the cavity opens
+    volume = [r.steps[-1]["loads"][name]["displacement"] for r, name in zip(results, (cavity.name, walls.name))]
+    assert volume[0] == pytest.approx(volume[1], rel=1e-5)
+
+
+def test_cavity_open_to_a_free_face_is_refused(tiny3d):
+    problem = cube_cavity(tiny3d, True)
+    problem.bcs = [bc for bc in problem.bcs if bc.name != "z0"]
+    problem.fix(lambda x: np.isclose(x[2], 0.0) & (x[0] > 1.0), components="z", name="z0")
+    problem.cavity_pressure(2, 0.05)
+    result = None
+    with pytest.raises(ValueError, match="is not closed: its face through the node .* without u_z fixed"):
+        result = problem.solve(steps=1)
+    assert result is None
