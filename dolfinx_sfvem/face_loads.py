@@ -36,7 +36,7 @@ import dolfinx.mesh
 from . import _compat
 from .discretization import Discretization
 from .energy import VolumeWork
-from .loads import BoundLoad, _BoundCavityPressure
+from .loads import BoundLoad, _BoundCavityPressure, _largest_entry
 from .logs import quiet_compilers
 
 #: the tag of the loaded facets in a load's facet tags
@@ -166,7 +166,7 @@ class BoundFaceTraction(BoundLoad):
         self._work = _form(ufl.dot(t, self.forms.u) * self.forms.ds)
         area = self.forms.scalar(_form(self.forms.scale * self.forms.ds))
         self.magnitude = self.t_norm * area
-        self.reference_norm = _largest_entry(self)
+        self.reference_norm = _largest_entry(self, None)
 
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
         self.forms.add_vector(self._force, f)
@@ -195,7 +195,7 @@ class BoundFacePressure(BoundLoad):
             force = -p * ufl.dot(forms.N, forms.v) * forms.ds
             self._conjugate = _form(-ufl.dot(forms.u, forms.N) * forms.ds)
         self._force = _form(force)
-        self.reference_norm = _largest_entry(self)
+        self.reference_norm = _largest_entry(self, None)
 
     def symmetric_with(self, constrained: np.ndarray) -> bool:
         """A follower pressure's stiffness is symmetric on a closed surface or one whose edges are
@@ -216,12 +216,6 @@ class BoundFacePressure(BoundLoad):
             self.forms.set_state(xl.array_r)
         return {"magnitude": load * self.p, "displacement": self.forms.scalar(self._conjugate)}
 
-
-def _largest_entry(load: BoundLoad) -> float:
-    """Largest entry of the load's nodal forces at λ = 1 in the reference state over all ranks."""
-    f = np.zeros((load.disc.n_local_nodes, 3))
-    load.add_force(None, f)
-    return load.comm.allreduce(float(np.abs(f).max(initial=0.0)), op=MPI.MAX)
 
 
 class BoundCavityPressure3D(_BoundCavityPressure):

@@ -234,7 +234,7 @@ class _BoundCavityPressure(BoundLoad):
 
 def _largest_entry(load: BoundLoad, u: np.ndarray | None) -> float:
     """Largest entry of the load's nodal forces at λ = 1 over all ranks (collective)."""
-    f = np.zeros((load.disc.n_local_nodes, 2))
+    f = np.zeros((load.disc.n_local_nodes, load.disc.gdim))
     load.add_force(u, f)
     return load.comm.allreduce(float(np.abs(f).max(initial=0.0)), op=MPI.MAX)
 
