@@ -29,8 +29,9 @@ TIGHT = {"snes_rtol": 1e-14, "snes_stol": 0.0, "snes_max_it": 30}
 REGULARIZATIONS = {"huhu": {"regularization": "huhu"},
                    "exponential_huhu": {"regularization": "huhu", "beta": 5.0},
                    "huhu_lulu": {"regularization": "huhu_lulu", "n_dim": 2},
-                   "rotation": {"regularization": "rotation"},
-                   "tan_rotation": {"regularization": "tan_rotation"}}
+                   "rotation": {"regularization": "rotation"}}
+# tan_rotation (Eq. 16) is left out: its 3D tangent takes gcc many minutes to compile on a shared
+# machine (docs/notes/2026-11-26-3d-lagrange-core.md)
 
 
 def extrude(mesh: sf.PolygonMesh, depth: float) -> CellMesh:
