@@ -8,6 +8,11 @@
 SHELL := /bin/bash
 DEBS := python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba \
         python3-scipy python3-matplotlib python3-pytest python3-sympy python3-venv openmpi-bin
+# offscreen OpenGL for the 3D pictures (VTK's EGL window on Mesa, dolfinx_sfvem/pictures3d.py)
+DEBS += libegl1 libegl-mesa0 libgl1-mesa-dri
+# the 3D contact geometry (libigl) and pictures (PyVista, VTK) from PyPI, into the Debian venv; the
+# same pins as the `3d` extra of pyproject.toml (the DOLFINx 0.11 venv)
+PIP3D := libigl==2.6.3 pyvista==0.49.1 vtk==9.7.2
 # the documentation site: Sphinx 5.3, MyST (the pages are Markdown) and the furo theme
 DOCS_DEBS := python3-sphinx python3-myst-parser furo
 VENV := .venv
@@ -52,6 +57,7 @@ $(STAMP): pyproject.toml
 	@$(call apt-install,$(DEBS))
 	[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
 	$(PY) -m pip install -q --no-deps --no-build-isolation -e .
+	$(PY) -m pip install -q $(PIP3D)
 	touch $(STAMP)
 
 # DOLFINx 0.11: a venv with the dolfinx-solver-real wheel (third-party, alpha) and the package
@@ -60,7 +66,7 @@ install-dolfinx011: $(STAMP011)
 $(STAMP011): pyproject.toml
 	@[ -n "$(PYTHON312)" ] || { echo "install-dolfinx011: no Python >= 3.12 found (see PYTHON312 above)"; exit 1; }
 	[ -x $(PY011) ] || $(PYTHON312) -m venv $(VENV011)
-	$(PY011) -m pip install -q -e ".[wheel,test]"
+	$(PY011) -m pip install -q -e ".[wheel,test,3d]"
 	touch $(STAMP011)
 
 DEMO := demos/cbox.py --method vem --uy -0.5 --steps 25 --out $(OUT)/cbox

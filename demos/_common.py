@@ -11,7 +11,8 @@ as many unknowns), ``--steps`` (the first load-factor increment is 1/steps), ``-
 ``--min-increment``, ``--fixed-increments``, ``--no-predictor`` (the load stepping of
 :class:`~dolfinx_sfvem.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
-regularization, off unless given), ``--quiet``, ``--resume DIR`` (continue the stopped run
+regularization, off unless given), ``--gamma-start`` (continuation in gamma from this value,
+:mod:`dolfinx_sfvem.gamma_continuation`), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
 (SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
 ``--adapt-max-unknowns`` as limits; docs/refinement-local.md). Every other argument starting with a
@@ -128,6 +129,10 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--beta", type=non_negative_float, default=beta,
                    help="exponent of the exp(-beta J) scaling of the regularization "
                         f"(default {'off' if beta is None else '%(default)s'})")
+    p.add_argument("--gamma-start", type=positive_float, default=None, metavar="G0",
+                   help="continuation in gamma: the medium starts the path at G0 and its gamma falls "
+                        "log-linearly with the load factor to --gamma at the full load (e.g. 1e-5 for "
+                        "--gamma 1e-6; docs/guide/medium.md; default: off)")
     p.add_argument("--fem-jump-penalty", type=positive_float, default=None, metavar="ETA",
                    help="--method fem only: add C0 interior-penalty terms with penalty ETA on the medium's "
                         "interior facets (dolfinx_sfvem/fem.py; e.g. 40; default: none, as the paper's model)")
@@ -295,16 +300,18 @@ def run(problem: sf.ContactProblem, args: argparse.Namespace,
         Exit code: 0 if the full load was reached, 1 otherwise.
     """
     adapt_options = ("adapt", "adapt_levels", "adapt_max_unknowns") if args.adapt is None else ()
+    unset = adapt_options + (("gamma_start",) if args.gamma_start is None else ())   # earlier runs' identity
     problem.parameters.update({k: v for k, v in vars(args).items()
-                               if k not in ("out", "quiet", "resume", "pressure_at", *adapt_options)})
+                               if k not in ("out", "quiet", "resume", "pressure_at", *unset)})
     control = solve_options.pop("control", None) or load_stepping(args)
     result = problem.solve(control=control, out=args.out, observers=observers, resume=args.resume is not None,
                            pressure_at=args.pressure_at, adapt=adaptivity(args),
-                           petsc_options=petsc_options(args), **solve_options)
+                           petsc_options=petsc_options(args), gamma_start=args.gamma_start, **solve_options)
     if problem.comm.rank == 0:
         files = sorted(f.name for f in args.out.iterdir() if not f.name.startswith("."))
         print(f"outputs in {args.out}/: {', '.join(files)}")
-        print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'} | "
+        unstable = " (UNSTABLE final state: not an answer)" if result.stable is False else ""
+        print(f"load reached {result.load:.6g} of 1 | converged: {'yes' if result.converged else 'no'}{unstable} | "
               f"wall time: {result.wall_time_s:.1f} s | dofs: {result.summary['dofs']}", flush=True)
     return 0 if result.converged else 1
 

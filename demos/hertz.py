@@ -37,7 +37,10 @@ secant predictor saves almost nothing there (174).
 
 All shared demo options (``--method``, ``--steps``, ``--gamma``, ``--out``, ``--resume``, PETSc
 options) work as in the other demos. At gamma = 1e-6 Newton stalls just after contact
-(docs/notes/2026-11-23-gamma-1e-6.md, docs/hertz.md): the demo stops there and says so.
+(docs/notes/2026-11-23-gamma-1e-6.md, docs/hertz.md): the demo stops there and says so; at h = 0.03
+the last states before the stall have a negative pivot and are reported UNSTABLE, and neither
+``--gamma-start 1e-5`` nor ``--alpha-r 10`` passes it; ``--gap 0.05`` does
+(docs/notes/2026-11-26-weak-medium.md).
 """
 from __future__ import annotations
 

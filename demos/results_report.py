@@ -94,12 +94,12 @@ def field(summary: RunSummary | None, name: str) -> typing.Any:
 
 
 def status(summary: RunSummary | None, why: bool = False) -> str:
-    """"full load", "not run", "interrupted at load ..." or "stopped at load ..." (with the
-    failure message if ``why``)."""
+    """"full load", "full load, unstable" (a final state with negative pivots, not an answer),
+    "not run", "interrupted at load ..." or "stopped at load ..." (with the failure message if ``why``)."""
     if summary is None:
         return "not run"
     if summary.converged:
-        return "full load"
+        return "full load" if summary.stable is not False else "full load, unstable"
     how = "interrupted" if summary.interrupted else "stopped"
     message = f": {summary.message}" if why and not summary.interrupted else ""
     return f"{how} at load {summary.load_reached:.3g}{message}"

@@ -214,6 +214,17 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
         return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
+def interpolation_matrix(V_from: dolfinx.fem.FunctionSpace, V_to: dolfinx.fem.FunctionSpace) -> PETSc.Mat:
+    """The assembled matrix that interpolates a function of ``V_from`` into ``V_to``
+    (rows: the dofs of V_to, columns: those of V_from; block size of the spaces)."""
+    if hasattr(dolfinx.fem.petsc, "interpolation_matrix"):     # DOLFINx 0.11
+        P = dolfinx.fem.petsc.interpolation_matrix(V_from, V_to)
+    else:
+        P = dolfinx.cpp.fem.petsc.interpolation_matrix(V_from._cpp_object, V_to._cpp_object)
+    P.assemble()
+    return P
+
+
 def cell_tensor_space(mesh: dolfinx.mesh.Mesh) -> dolfinx.fem.FunctionSpace:
     """(d, d) tensors constant in every cell (DG0), d the geometric dimension."""
     d = mesh.geometry.dim

@@ -64,6 +64,8 @@ class ArcLength(Control):
         Converged steps after which the path ends unfinished.
     """
 
+    traces_unstable_branches = True       # the branch between limit points is part of the path
+
     def __init__(self, load_step: float = 0.05, *, psi: float = 0.0, target_iterations: int = 6,
                  max_growth: float = 8.0, min_shrink: float = 2.0 ** -12,
                  stop: tuple[str, float] | None = None, max_steps: int = 1000):

@@ -57,8 +57,9 @@ class Gap:
     value : float
         min_p g(p) (length unit of the mesh); negative: overlap; ``inf`` when no boundary node
         has a partner (one body without facing surfaces).
-    x, X : (2,) float
-        Deformed and reference position of the node where it occurs.
+    x, X : (2,) or (3,) float
+        Deformed and reference position of the node (3D: or the point sampled on a crossing
+        face) where it occurs.
     region, partner_region : int
         Region tag of that node and of the boundary piece it is measured to (-1 if none).
     body, partner_body : int
@@ -82,8 +83,8 @@ class Gap:
 
     def describe(self) -> str:
         """One sentence naming the regions and the place."""
-        where = (f"node at ({self.x[0]:.4g}, {self.x[1]:.4g}), reference ({self.X[0]:.4g}, {self.X[1]:.4g}), "
-                 f"of region {self.region} (body {self.body})")
+        x, X = (", ".join(f"{c:.4g}" for c in v) for v in (self.x, self.X))
+        where = f"node at ({x}), reference ({X}), of region {self.region} (body {self.body})"
         partner = f"region {self.partner_region} (body {self.partner_body})"
         if self.value < 0.0:
             return f"{where} lies {-self.value:.3e} inside {partner}"
@@ -102,13 +103,14 @@ class ContactPair:
 
     Attributes
     ----------
-    force : (2,) float
+    force : (2,) or (3,) float
         Total force of the medium (its whole energy, regularization included) on ``body``'s
         surface facing the partner (force per unit thickness, the units of the reactions).
     max_pressure : float
         Largest normal pressure there (:attr:`ContactPressure.pressure`; force per unit length).
     zone_length : float
-        Deformed length of the contact zone (pressure above the threshold fraction of the largest).
+        Deformed length of the contact zone (pressure above the threshold fraction of the largest);
+        in 3D its deformed area.
     gap : float
         Smallest signed gap of ``body``'s nodes facing the partner.
     """
@@ -132,7 +134,7 @@ class ContactPressure:
 
     Attributes
     ----------
-    X, x : (n, 2)
+    X, x : (n, 2) or (n, 3)
         Reference and deformed positions of the boundary nodes.
     pressure : (n,)
         Normal pressure of the medium's material response on the solid (compressive positive;
@@ -286,12 +288,7 @@ class SolidBoundary:
 
     def _gap(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, depth: np.ndarray) -> Gap:
         overlap = float((depth / (self.tolerance * self.node_h)).max(initial=0.0))
-        if not np.isfinite(g).any():
-            return Gap(math.inf, (math.nan, math.nan), (math.nan, math.nan), -1, -1, -1, -1, overlap)
-        p = int(np.argmin(g))
-        s = int(partner[p])
-        return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, self.X[p])), int(self.node_tag[p]),
-                   int(self.piece_tag[s]), int(self.node_body[p]), int(self.piece_body[s]), overlap)
+        return smallest_gap(self, x, g, partner, overlap)
 
     def _pressure(self, x: np.ndarray, g: np.ndarray, partner: np.ndarray, f: np.ndarray,
                   f_material: np.ndarray) -> ContactPressure:
@@ -319,31 +316,7 @@ class SolidBoundary:
                       out=np.zeros(self.n_nodes), where=length_at > 0.0)
         p[m[facing]] = p_edge[facing]
         piece_length = np.linalg.norm(x[self.pieces[:, 1]] - x[self.pieces[:, 0]], axis=1)
-        partner_body = np.where(partner >= 0, self.piece_body[np.maximum(partner, 0)], -1)
-        pairs, zone = [], np.zeros(self.n_nodes, dtype=bool)
-        for body, other in sorted({(int(i), int(j)) for i, j in zip(self.node_body, partner_body) if j >= 0}):
-            on = (self.node_body == body) & (partner_body == other)
-            p_max = float(p[on].max(initial=0.0))
-            mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
-            zone |= mine
-            in_zone = mine[self.pieces[:, 0]] & mine[self.pieces[:, 1]]
-            region = int(self.node_tag[np.argmax(on)])
-            pairs.append(ContactPair(body, other, region, int(self.piece_tag[np.argmax(self.piece_body == other)]),
-                                     tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_length[in_zone].sum()),
-                                     float(g[on].min(initial=math.inf))))
-        return ContactPressure(self.X, x, p, self.node_body, partner_body, zone, self._surfaces(partner_body), pairs)
-
-    def _surfaces(self, partner_body: np.ndarray) -> np.ndarray:
-        """:attr:`ContactPressure.surface` of every node, from the body each node faces (n,) (-1: none)."""
-        pair = np.where(partner_body >= 0, self.node_body * (self.n_bodies + 1) + partner_body, -1)
-        i, j = self.pieces.T
-        joined = (pair[i] == pair[j]) & (pair[i] >= 0)
-        graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(self.n_nodes,) * 2)
-        _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
-        surface = np.full(self.n_nodes, -1, dtype=np.int64)
-        facing = pair >= 0
-        surface[facing] = np.unique(label[facing], return_inverse=True)[1]
-        return surface
+        return contact_pressure(self, x, g, partner, p, f, piece_length)
 
     def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
         """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``
@@ -365,6 +338,68 @@ class SolidBoundary:
         collective, the result on every rank)."""
         u = self.gather(comm, keys, values)
         return comm.bcast(self.gap(u) if comm.rank == 0 else None, root=0)
+
+
+class _Pieces(typing.Protocol):
+    """What :func:`smallest_gap` and :func:`contact_pressure` read of a :class:`SolidBoundary` (pieces:
+    straight segments) or a :class:`~dolfinx_sfvem.solid_surface.SolidSurface` (flat sub-triangles)."""
+    X: np.ndarray
+    n_bodies: int
+    node_body: np.ndarray
+    node_tag: np.ndarray
+    pieces: np.ndarray
+    piece_body: np.ndarray
+    piece_tag: np.ndarray
+
+
+def smallest_gap(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: np.ndarray, overlap: float) -> Gap:
+    """The :class:`Gap` of the smallest ``g`` (n_nodes,) of the nodes, at deformed positions ``x``,
+    measured to the pieces ``partner`` (n_nodes,)."""
+    if not np.isfinite(g).any():
+        nowhere = (math.nan,) * x.shape[1]
+        return Gap(math.inf, nowhere, nowhere, -1, -1, -1, -1, overlap)
+    p = int(np.argmin(g))
+    s = int(partner[p])
+    return Gap(float(g[p]), tuple(map(float, x[p])), tuple(map(float, boundary.X[p])), int(boundary.node_tag[p]),
+               int(boundary.piece_tag[s]), int(boundary.node_body[p]), int(boundary.piece_body[s]), overlap)
+
+
+def contact_pressure(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: np.ndarray, p: np.ndarray,
+                     f: np.ndarray, piece_size: np.ndarray) -> ContactPressure:
+    """The :class:`ContactPressure` of the nodal pressure ``p`` (n_nodes,): the pairs of bodies (each
+    node's partner: the body of its piece ``partner``), each with the whole medium force ``f``
+    (n_nodes, dim) on its nodes, its largest pressure, the deformed size (``piece_size`` (m,): lengths
+    or areas) of its zone and its smallest gap ``g``; and the facing surfaces."""
+    n_nodes = boundary.X.shape[0]
+    partner_body = np.where(partner >= 0, boundary.piece_body[np.maximum(partner, 0)], -1)
+    pairs, zone = [], np.zeros(n_nodes, dtype=bool)
+    for body, other in sorted({(int(i), int(j)) for i, j in zip(boundary.node_body, partner_body) if j >= 0}):
+        on = (boundary.node_body == body) & (partner_body == other)
+        p_max = float(p[on].max(initial=0.0))
+        mine = on & (p > ZONE_THRESHOLD * p_max) & (p_max > 0.0)
+        zone |= mine
+        in_zone = mine[boundary.pieces].all(axis=1)
+        region = int(boundary.node_tag[np.argmax(on)])
+        pairs.append(ContactPair(body, other, region, int(boundary.piece_tag[np.argmax(boundary.piece_body == other)]),
+                                 tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_size[in_zone].sum()),
+                                 float(g[on].min(initial=math.inf))))
+    return ContactPressure(boundary.X, x, p, boundary.node_body, partner_body, zone,
+                           _surfaces(boundary, partner_body), pairs)
+
+
+def _surfaces(boundary: _Pieces, partner_body: np.ndarray) -> np.ndarray:
+    """:attr:`ContactPressure.surface` of every node, from the body each node faces (n,) (-1: none):
+    nodes joined through the sides of pieces whose two nodes face the same body."""
+    n_nodes = boundary.X.shape[0]
+    pair = np.where(partner_body >= 0, boundary.node_body * (boundary.n_bodies + 1) + partner_body, -1)
+    i, j = boundary.pieces.ravel(), np.roll(boundary.pieces, -1, axis=1).ravel()
+    joined = (pair[i] == pair[j]) & (pair[i] >= 0)
+    graph = scipy.sparse.coo_matrix((np.ones(int(joined.sum())), (i[joined], j[joined])), shape=(n_nodes,) * 2)
+    _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    surface = np.full(n_nodes, -1, dtype=np.int64)
+    facing = pair >= 0
+    surface[facing] = np.unique(label[facing], return_inverse=True)[1].reshape(-1)
+    return surface
 
 
 @numba.njit(cache=True)
@@ -444,50 +479,17 @@ def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_norma
     return g, partner, depth
 
 
-class UncheckedSurface:
-    """The interface of :class:`SolidBoundary` without any check: every gap infinite, no contact
-    pressure. What :func:`solid_boundary` gives for a 3D mesh while the 3D contact geometry
-    (``solid_surface.SolidSurface``) is not installed."""
-
-    n_bodies = 0
-
-    def __init__(self, gdim: int, tolerance: float = OVERLAP_TOLERANCE):
-        self.gdim = gdim
-        self.tolerance = tolerance
-        self.node_keys = np.empty(0, dtype=np.int64)
-        self.X = np.empty((0, gdim))
-
-    def _none(self) -> Gap:
-        nan = (math.nan,) * self.gdim
-        return Gap(math.inf, nan, nan, -1, -1, -1, -1, 0.0)
-
-    def gap(self, u: np.ndarray | None) -> Gap:
-        return self._none()
-
-    def gap_and_pressure(self, u, f, f_material) -> tuple[Gap, ContactPressure]:
-        empty = np.empty((0, self.gdim))
-        none = np.empty(0, dtype=np.int64)
-        return self._none(), ContactPressure(empty, empty, np.empty(0), none, none, np.empty(0, dtype=bool), none, [])
-
-    def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
-        return np.empty((0, self.gdim)) if comm.rank == 0 else None
-
-    def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
-        return self._none()
-
-
 def solid_boundary(mesh, solid_tags: typing.Collection[int],
                    midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
                    tolerance: float = OVERLAP_TOLERANCE,
                    face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None):
-    """The contact checks of a mesh: :class:`SolidBoundary` for a polygon mesh, the 3D
-    ``solid_surface.SolidSurface`` for a 3D :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (the only
-    place that tells the two apart); both with the same interface. Without the 3D contact
-    geometry installed, a 3D mesh gets :class:`UncheckedSurface` (no checks)."""
+    """The contact geometry of ``mesh``: :class:`SolidBoundary` for a :class:`PolygonMesh`,
+    :class:`~dolfinx_sfvem.solid_surface.SolidSurface` for a 3D ``CellMesh`` (the same interface;
+    ``face_centre_keys`` only for hexahedra)."""
     if isinstance(mesh, PolygonMesh):
         return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
-    try:
-        from .solid_surface import SolidSurface
-    except ImportError:
-        return UncheckedSurface(mesh.gdim, tolerance)
-    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys=face_centre_keys)
+    if np.shape(mesh.points)[1] != 3:
+        raise TypeError(f"contact checks need a PolygonMesh (2D) or a 3D mesh, not a {mesh.cell_type} mesh "
+                        f"with {np.shape(mesh.points)[1]} coordinates")
+    from .solid_surface import SolidSurface       # libigl is needed in 3D only
+    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys)

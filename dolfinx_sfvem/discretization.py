@@ -264,6 +264,13 @@ class Discretization(abc.ABC):
         """An AIJ matrix with the tangent's pattern (diagonal included) that keeps its pattern
         when rows are zeroed."""
 
+    def coarse_interpolation(self) -> PETSc.Mat:
+        """The interpolation of a degree-1 space on the mesh's vertices into the unknowns: an
+        assembled AIJ matrix (unknowns x d vertex nodes, block size d) that reproduces every
+        linear displacement exactly; the coarse level of the ``"iterative"`` linear solver
+        (:func:`~dolfinx_sfvem.linear_solvers.configure_ksp`)."""
+        raise NotImplementedError(f"{type(self).__name__} has no degree-1 coarse space: use linear_solver='direct'")
+
     # ------------------------------------------------------------------ assembly
     @abc.abstractmethod
     def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:

@@ -1,4 +1,12 @@
-"""Exact answers for validating loads: a plane-strain thick-walled cylinder under internal pressure.
+"""Exact answers for validating loads: a plane-strain thick-walled cylinder and a thick-walled sphere
+under internal pressure, and Hertz's sphere contact.
+
+The sphere (:func:`thick_sphere`, :func:`lame_sphere`) is the same problem with two hoop directions
+(``hoop = 2``): ``lambda_theta = lambda_phi = rho / R``, ``J = lambda_r lambda_theta^2``,
+``tr C = lambda_r^2 + 2 lambda_theta^2``, equilibrium ``(R^2 P_r)' = 2 R P_theta`` (P_theta per
+direction), ``P_r(a) = -p (rho(a)/a)^2`` (follower) or ``-p`` (dead), ``P_r(b) = 0``; everything
+below holds with these replacements (``c^hoop`` for c where the area of the inner surface enters).
+:func:`hertz_sphere` gives Hertz's contact radius, peak pressure and indentation.
 
 The solid is the energy of paper Eq. 2, ``Psi = K/2 (ln J)^2 + mu/2 (J^(-2/3) tr C - 3)``, in
 plane strain. A radial deformation maps the reference radius R (a <= R <= b) to the deformed
@@ -47,7 +55,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from typing import Literal, Union
+from typing import Literal, NamedTuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -59,12 +67,14 @@ RTOL = 1e-12
 
 
 def kirchhoff_stresses(lambda_r: npt.ArrayLike, lambda_theta: npt.ArrayLike, K: float,
-                       mu: float) -> tuple[np.ndarray, np.ndarray]:
-    """Principal Kirchhoff stresses ``tau_i = lambda_i dPsi/dlambda_i`` of paper Eq. 2, plane strain.
+                       mu: float, hoop: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Principal Kirchhoff stresses ``tau_i = lambda_i dPsi/dlambda_i`` of paper Eq. 2 under a radial
+    deformation: plane strain (``hoop = 1``, the cylinder) or spherical (``hoop = 2``).
 
     ``tau_i = K ln J + mu J^(-2/3) (lambda_i^2 - tr C / 3)``, i = r, theta, with
-    ``J = lambda_r lambda_theta`` and ``tr C = lambda_r^2 + lambda_theta^2 + 1``. The first Piola
-    stresses are ``P_i = tau_i / lambda_i``, the Cauchy stresses ``sigma_i = tau_i / J``.
+    ``J = lambda_r lambda_theta^hoop`` and ``tr C = lambda_r^2 + hoop lambda_theta^2 + 2 - hoop``
+    (the cylinder's lambda_z = 1). The first Piola stresses are ``P_i = tau_i / lambda_i`` (the hoop
+    one per hoop direction), the Cauchy stresses ``sigma_i = tau_i / J``.
 
     Parameters
     ----------
@@ -72,6 +82,8 @@ def kirchhoff_stresses(lambda_r: npt.ArrayLike, lambda_theta: npt.ArrayLike, K: 
         Radial and hoop stretches.
     K, mu : float
         Bulk and shear modulus.
+    hoop : 1 or 2
+        Number of hoop directions: 1 for the cylinder in plane strain, 2 for the sphere.
 
     Returns
     -------
@@ -79,50 +91,52 @@ def kirchhoff_stresses(lambda_r: npt.ArrayLike, lambda_theta: npt.ArrayLike, K: 
         Same shape as the stretches, in stress units.
     """
     lambda_r, lambda_theta = np.asarray(lambda_r, dtype=np.float64), np.asarray(lambda_theta, dtype=np.float64)
-    J = lambda_r * lambda_theta
+    J = lambda_r * lambda_theta ** hoop
     pressure_part = K * np.log(J)
     shear = mu * J ** (-2 / 3)
-    third_tr_C = (lambda_r ** 2 + lambda_theta ** 2 + 1) / 3
+    third_tr_C = (lambda_r ** 2 + hoop * lambda_theta ** 2 + 2 - hoop) / 3
     return (pressure_part + shear * (lambda_r ** 2 - third_tr_C),
             pressure_part + shear * (lambda_theta ** 2 - third_tr_C))
 
 
 def piola_stresses(lambda_r: npt.ArrayLike, lambda_theta: npt.ArrayLike, K: float,
-                   mu: float) -> tuple[np.ndarray, np.ndarray]:
-    """``P1 = dPsi/dlambda_r`` and ``P2 = dPsi/dlambda_theta`` of paper Eq. 2, plane strain (see
-    :func:`kirchhoff_stresses`)."""
-    tau_r, tau_theta = kirchhoff_stresses(lambda_r, lambda_theta, K, mu)
+                   mu: float, hoop: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """``P1 = dPsi/dlambda_r`` and ``P2 = (1/hoop) dPsi/dlambda_theta`` (per hoop direction) of paper
+    Eq. 2 under a radial deformation (see :func:`kirchhoff_stresses`)."""
+    tau_r, tau_theta = kirchhoff_stresses(lambda_r, lambda_theta, K, mu, hoop)
     return tau_r / lambda_r, tau_theta / lambda_theta
 
 
-def _dP1(lambda_r: float, lambda_theta: float, K: float, mu: float) -> tuple[float, float]:
+def _dP1(lambda_r: float, lambda_theta: float, K: float, mu: float, hoop: int) -> tuple[float, float]:
     """``dP1/dlambda_r`` and ``dP1/dlambda_theta`` of Eq. 2 (closed form; P1 = tau_r / lambda_r)."""
-    tau_r, _ = kirchhoff_stresses(lambda_r, lambda_theta, K, mu)
-    shear = mu * (lambda_r * lambda_theta) ** (-2 / 3)
-    deviatoric = lambda_r ** 2 - (lambda_r ** 2 + lambda_theta ** 2 + 1) / 3
+    tau_r, _ = kirchhoff_stresses(lambda_r, lambda_theta, K, mu, hoop)
+    shear = mu * (lambda_r * lambda_theta ** hoop) ** (-2 / 3)
+    deviatoric = lambda_r ** 2 - (lambda_r ** 2 + hoop * lambda_theta ** 2 + 2 - hoop) / 3
     dtau_dlambda_r = K / lambda_r + shear * (-2 / 3 * deviatoric / lambda_r + 4 / 3 * lambda_r)
-    dtau_dlambda_theta = K / lambda_theta + shear * (-2 / 3 * deviatoric / lambda_theta - 2 / 3 * lambda_theta)
+    dtau_dlambda_theta = hoop * (K / lambda_theta
+                                 + shear * (-2 / 3 * deviatoric / lambda_theta - 2 / 3 * lambda_theta))
     return float((dtau_dlambda_r - tau_r / lambda_r) / lambda_r), float(dtau_dlambda_theta / lambda_r)
 
 
-def _equilibrium(R: float, y: np.ndarray, K: float, mu: float) -> np.ndarray:
-    """``(rho, lambda_r)' `` from ``(R P1)' = P2`` written as ``R dP1/dR = P2 - P1`` with
+def _equilibrium(R: float, y: np.ndarray, K: float, mu: float, hoop: int) -> np.ndarray:
+    """``(rho, lambda_r)' `` from ``(R^hoop P1)' = hoop R^(hoop-1) P2`` written as
+    ``R dP1/dR = hoop (P2 - P1)`` with
     ``dP1/dR = dP1/dlambda_r lambda_r' + dP1/dlambda_theta (lambda_r - lambda_theta) / R``."""
     rho, lambda_r = y
     lambda_theta = rho / R
-    P1, P2 = piola_stresses(lambda_r, lambda_theta, K, mu)
-    dP1_dlambda_r, dP1_dlambda_theta = _dP1(lambda_r, lambda_theta, K, mu)
-    dlambda_r = (P2 - P1 - dP1_dlambda_theta * (lambda_r - lambda_theta)) / (R * dP1_dlambda_r)
+    P1, P2 = piola_stresses(lambda_r, lambda_theta, K, mu, hoop)
+    dP1_dlambda_r, dP1_dlambda_theta = _dP1(lambda_r, lambda_theta, K, mu, hoop)
+    dlambda_r = (hoop * (P2 - P1) - dP1_dlambda_theta * (lambda_r - lambda_theta)) / (R * dP1_dlambda_r)
     return np.array([lambda_r, dlambda_r])
 
 
-def _radial_stretch(P1: float, lambda_theta: float, K: float, mu: float) -> float:
+def _radial_stretch(P1: float, lambda_theta: float, K: float, mu: float, hoop: int) -> float:
     """The radial stretch with ``dPsi/dlambda_r(lambda_r, lambda_theta) = P1`` (bracketed root)."""
     if not lambda_theta > 0:
         raise ValueError(f"hoop stretch must be > 0, got {lambda_theta!r}")
 
     def residual(lambda_r: float) -> float:
-        return float(piola_stresses(lambda_r, lambda_theta, K, mu)[0]) - P1
+        return float(piola_stresses(lambda_r, lambda_theta, K, mu, hoop)[0]) - P1
 
     low, high = 0.5, 2.0
     while residual(low) > 0:  # P1 -> -inf as lambda_r -> 0
@@ -133,7 +147,7 @@ def _radial_stretch(P1: float, lambda_theta: float, K: float, mu: float) -> floa
 
 
 def _check_geometry(a: float, b: float, K: float, mu: float) -> None:
-    """ValueError naming the bad parameter of a cylinder a < R < b of moduli K, mu."""
+    """ValueError naming the bad parameter of a cylinder or sphere a < R < b of moduli K, mu."""
     if not (math.isfinite(a) and a > 0):
         raise ValueError(f"inner radius a must be a number > 0, got {a!r}")
     if not (math.isfinite(b) and b > a):
@@ -143,17 +157,56 @@ def _check_geometry(a: float, b: float, K: float, mu: float) -> None:
             raise ValueError(f"modulus {name} must be a number > 0, got {value!r}")
 
 
+#: the whole cavity's measure is CAVITY_MEASURE[hoop] a^(hoop + 1): the disc's area, the ball's volume
+_CAVITY_MEASURE = {1: math.pi, 2: 4 * math.pi / 3}
+
+#: what a cavity's measure is, by the number of hoop directions
+_CAVITY_KIND = {1: "area (cylinder)", 2: "volume (sphere)"}
+
+
+class _Cavity:
+    """The cavity's area (cylinder) or volume (sphere) change, from ``hoop`` and ``_cavity_change()``."""
+
+    hoop: int
+
+    def _cavity_change(self) -> float:
+        raise NotImplementedError
+
+    def _checked(self, hoop: int) -> float:
+        if self.hoop != hoop:
+            raise AttributeError(f"the cavity change here is its {_CAVITY_KIND[self.hoop]}, not its "
+                                 f"{_CAVITY_KIND[hoop]}")
+        return self._cavity_change()
+
+    @property
+    def cavity_area_change(self) -> float:
+        """Area change of the cylinder's whole cavity (a quarter model: / 4)."""
+        return self._checked(1)
+
+    @property
+    def cavity_volume_change(self) -> float:
+        """Volume change of the sphere's whole cavity (a 1/8 model: / 8)."""
+        return self._checked(2)
+
+
 @dataclasses.dataclass(frozen=True)
-class LameSolution:
-    """Lamé's small-strain solution of the plane-strain cylinder a < R < b under internal pressure p,
-    ``u_r(R) = A R + B / R``, for the linearisation of Eq. 2 (Lamé ``lambda = K - 2 mu / 3``, shear mu).
+class LameSolution(_Cavity):
+    """Lamé's small-strain solution of the thick-walled cylinder (plane strain, ``hoop = 1``) or
+    sphere (``hoop = 2``) a < R < b under internal pressure p, ``u_r(R) = A R + B / R^hoop``, for the
+    linearisation of Eq. 2 (Lamé ``lambda = K - 2 mu / 3``, shear mu).
 
     Attributes
     ----------
     a, b, K, mu, p : float
         Inner and outer radius, bulk and shear modulus, pressure (> 0 pushes the wall outwards).
     A, B : float
-        ``A = p a^2 / (2 (lambda + mu) (b^2 - a^2))``, ``B = p a^2 b^2 / (2 mu (b^2 - a^2))``.
+        ``A = p a^(m+1) / (((m+1) lambda + 2 mu) (b^(m+1) - a^(m+1)))`` and
+        ``B = p a^(m+1) b^(m+1) / (2 m mu (b^(m+1) - a^(m+1)))``, m = hoop: for the cylinder
+        ``A = p a^2 / (2 (lambda + mu) (b^2 - a^2))``, ``B = p a^2 b^2 / (2 mu (b^2 - a^2))``; for the
+        sphere ``A = p a^3 / (3 K (b^3 - a^3))``, ``B = p a^3 b^3 / (4 mu (b^3 - a^3))``, i.e.
+        ``u(r) = p a^3 / (E (b^3 - a^3)) [(1 - 2 nu) r + (1 + nu) b^3 / (2 r^2)]``.
+    hoop : 1 or 2
+        Cylinder or sphere.
     """
 
     a: float
@@ -163,25 +216,31 @@ class LameSolution:
     p: float
     A: float
     B: float
+    hoop: int = 1
 
     def u_r(self, R: npt.ArrayLike) -> np.ndarray:
         """Radial displacement at reference radii R (any shape)."""
         R = np.asarray(R, dtype=np.float64)
-        return self.A * R + self.B / R
+        return self.A * R + self.B / R ** self.hoop
 
     def rho(self, R: npt.ArrayLike) -> np.ndarray:
         """Deformed radius ``R + u_r(R)``."""
         return np.asarray(R, dtype=np.float64) + self.u_r(R)
 
+    @property
+    def _volumetric(self) -> float:
+        """``(m + 1) lambda + 2 mu``: the radial stress per unit of A."""
+        return (1 + self.hoop) * self.K + 2 * self.mu * (2 - self.hoop) / 3
+
     def sigma_r(self, R: npt.ArrayLike) -> np.ndarray:
-        """Radial stress ``2 (lambda + mu) A - 2 mu B / R^2``."""
+        """Radial stress ``((m + 1) lambda + 2 mu) A - 2 m mu B / R^(m+1)`` (m = hoop)."""
         R = np.asarray(R, dtype=np.float64)
-        return 2 * (self.K + self.mu / 3) * self.A - 2 * self.mu * self.B / R ** 2
+        return self._volumetric * self.A - 2 * self.hoop * self.mu * self.B / R ** (self.hoop + 1)
 
     def sigma_theta(self, R: npt.ArrayLike) -> np.ndarray:
-        """Hoop stress ``2 (lambda + mu) A + 2 mu B / R^2``."""
+        """Hoop stress ``((m + 1) lambda + 2 mu) A + 2 mu B / R^(m+1)`` (m = hoop)."""
         R = np.asarray(R, dtype=np.float64)
-        return 2 * (self.K + self.mu / 3) * self.A + 2 * self.mu * self.B / R ** 2
+        return self._volumetric * self.A + 2 * self.mu * self.B / R ** (self.hoop + 1)
 
     @property
     def inner_radius_change(self) -> float:
@@ -189,9 +248,22 @@ class LameSolution:
         return float(self.u_r(self.a))
 
     @property
-    def cavity_area_change(self) -> float:
-        """Area change of the whole cavity to first order in p, ``2 pi a u_r(a)`` (a quarter model: / 4)."""
-        return 2 * math.pi * self.a * self.inner_radius_change
+    def outer_radius_change(self) -> float:
+        """``u_r(b)``."""
+        return float(self.u_r(self.b))
+
+    def _cavity_change(self) -> float:
+        """To first order in p: ``2 pi a u_r(a)`` (cylinder), ``4 pi a^2 u_r(a)`` (sphere)."""
+        return (self.hoop + 1) * _CAVITY_MEASURE[self.hoop] * self.a ** self.hoop * self.inner_radius_change
+
+
+def _lame(a: float, b: float, K: float, mu: float, p: float, hoop: int) -> LameSolution:
+    _check_geometry(a, b, K, mu)
+    lame = K - 2 * mu / 3
+    m = hoop
+    wall = b ** (m + 1) - a ** (m + 1)
+    return LameSolution(a, b, K, mu, p, p * a ** (m + 1) / (((m + 1) * lame + 2 * mu) * wall),
+                        p * a ** (m + 1) * b ** (m + 1) / (2 * m * mu * wall), hoop)
 
 
 def lame_cylinder(a: float, b: float, K: float, mu: float, p: float) -> LameSolution:
@@ -206,10 +278,14 @@ def lame_cylinder(a: float, b: float, K: float, mu: float, p: float) -> LameSolu
     p : float
         Internal pressure (stress units).
     """
-    _check_geometry(a, b, K, mu)
-    lame = K - 2 * mu / 3
-    wall = b ** 2 - a ** 2
-    return LameSolution(a, b, K, mu, p, p * a ** 2 / (2 * (lame + mu) * wall), p * a ** 2 * b ** 2 / (2 * mu * wall))
+    return _lame(a, b, K, mu, p, 1)
+
+
+def lame_sphere(a: float, b: float, K: float, mu: float, p: float) -> LameSolution:
+    """Lamé's thick-walled sphere under internal pressure p (outer surface free), arguments as
+    :func:`lame_cylinder`: ``u(r) = p a^3 / (E (b^3 - a^3)) [(1 - 2 nu) r + (1 + nu) b^3 / (2 r^2)]``
+    with ``E = 9 K mu / (3 K + mu)``, ``nu = (3 K - 2 mu) / (2 (3 K + mu))``."""
+    return _lame(a, b, K, mu, p, 2)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -236,10 +312,10 @@ class CavityMedium:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"CavityMedium: {name} must be a number >= 0, got {value!r}")
 
-    def radial_piola(self, c: float, p: float) -> float:
-        """``gamma dPsi_m/dlambda_r(c, c) - p c``: the disc's first Piola stress (a multiple of I)
-        under the homogeneous stretch c."""
-        return self.gamma * float(kirchhoff_stresses(c, c, self.K, self.mu)[0]) / c - p * c
+    def radial_piola(self, c: float, p: float, hoop: int = 1) -> float:
+        """``gamma dPsi_m/dlambda_r(c, c) - p c^hoop``: the medium's first Piola stress (a multiple of
+        I) under the homogeneous stretch c (``hoop``: 1 disc in plane strain, 2 ball)."""
+        return self.gamma * float(kirchhoff_stresses(c, c, self.K, self.mu, hoop)[0]) / c - p * c ** hoop
 
 
 #: what acts on the inner surface R = a: a "follower" or "dead" pressure, or a pressurized third medium
@@ -251,18 +327,19 @@ def _check_load(load: Load) -> None:
         raise ValueError(f"load must be 'follower', 'dead' or a CavityMedium, got {load!r}")
 
 
-def _pressure(load: Load, c: float, P1: float) -> float:
+def _pressure(load: Load, c: float, P1: float, hoop: int) -> float:
     """The pressure p for which ``P1 = P1(a)`` meets the condition of ``load`` at R = a, c = rho(a)/a."""
-    if load == "follower":      # P1(a) = -p c
-        return -P1 / c
+    if load == "follower":      # P1(a) = -p c^hoop
+        return -P1 / c ** hoop
     if load == "dead":          # P1(a) = -p
         return -P1
-    return (load.radial_piola(c, 0.0) - P1) / c   # P1(a) = gamma dPsi_m/dlambda_r(c, c) - p c
+    return (load.radial_piola(c, 0.0, hoop) - P1) / c ** hoop   # P1(a) = gamma dPsi_m/dlambda_r(c, c) - p c^hoop
 
 
 @dataclasses.dataclass(frozen=True)
-class RadialSolution:
-    """Finite-strain radial solution rho(R) of the pressurized cylinder (module docstring).
+class RadialSolution(_Cavity):
+    """Finite-strain radial solution rho(R) of the pressurized cylinder (``hoop = 1``) or sphere
+    (``hoop = 2``) (module docstring).
 
     Attributes
     ----------
@@ -273,10 +350,12 @@ class RadialSolution:
     load : "follower", "dead" or CavityMedium
         The condition at R = a (:data:`Load`).
     c : float
-        ``rho(a) / a``; with a :class:`CavityMedium` the disc R < a deforms as ``rho = c R``.
+        ``rho(a) / a``; with a :class:`CavityMedium` the hole R < a deforms as ``rho = c R``.
     state : callable
         ``state(R) -> (2, n)`` rows ``rho`` and ``lambda_r`` on a <= R <= b (the dense output of
         the ODE integration).
+    hoop : 1 or 2
+        Cylinder (plane strain) or sphere.
     """
 
     a: float
@@ -287,6 +366,7 @@ class RadialSolution:
     load: Load
     c: float
     state: Callable[[np.ndarray], np.ndarray] = dataclasses.field(repr=False)
+    hoop: int = 1
 
     @property
     def filled(self) -> bool:
@@ -294,10 +374,15 @@ class RadialSolution:
         return isinstance(self.load, CavityMedium)
 
     @property
+    def lame(self) -> LameSolution:
+        """Lamé's small-strain solution at the same pressure (the limit of this one as p -> 0)."""
+        return _lame(self.a, self.b, self.K, self.mu, self.p, self.hoop)
+
+    @property
     def medium_stress(self) -> float:
-        """The Cauchy stress ``sigma_r = sigma_theta = gamma dPsi_m/dlambda_r(c, c) / c - p`` in the
-        medium (NaN without one)."""
-        return self.load.radial_piola(self.c, self.p) / self.c if self.filled else math.nan
+        """The Cauchy stress ``sigma_r = sigma_theta = (gamma dPsi_m/dlambda_r(c, c) - p c^hoop) / c^hoop``
+        in the medium (NaN without one)."""
+        return self.load.radial_piola(self.c, self.p, self.hoop) / self.c ** self.hoop if self.filled else math.nan
 
     def _annulus(self, R: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Radii (flattened), their mask of R >= a, and the state there (NaN elsewhere)."""
@@ -333,9 +418,9 @@ class RadialSolution:
 
     def _cauchy(self, R: npt.ArrayLike, component: int) -> np.ndarray:
         lambda_r, lambda_theta = self.stretches(R)
-        tau = kirchhoff_stresses(lambda_r, lambda_theta, self.K, self.mu)[component]
+        tau = kirchhoff_stresses(lambda_r, lambda_theta, self.K, self.mu, self.hoop)[component]
         in_medium = np.asarray(R, dtype=np.float64) < self.a
-        return np.where(in_medium, self.medium_stress, tau / (lambda_r * lambda_theta))
+        return np.where(in_medium, self.medium_stress, tau / (lambda_r * lambda_theta ** self.hoop))
 
     def sigma_r(self, R: npt.ArrayLike) -> np.ndarray:
         """Radial Cauchy stress ``tau_r / J`` at reference radii R."""
@@ -355,10 +440,29 @@ class RadialSolution:
         """``rho(b) - b``."""
         return float(self.u_r(self.b))
 
-    @property
-    def cavity_area_change(self) -> float:
-        """Area change of the whole cavity ``pi (rho(a)^2 - a^2)`` (a quarter model: / 4)."""
-        return math.pi * self.a ** 2 * (self.c ** 2 - 1)
+    def _cavity_change(self) -> float:
+        """``pi (rho(a)^2 - a^2)`` (cylinder) or ``4/3 pi (rho(a)^3 - a^3)`` (sphere)."""
+        return _CAVITY_MEASURE[self.hoop] * self.a ** (self.hoop + 1) * (self.c ** (self.hoop + 1) - 1)
+
+
+def _at_outer_stretch(a: float, b: float, K: float, mu: float, outer_stretch: float, load: Load,
+                      hoop: int) -> RadialSolution:
+    """The radial solution with ``rho(b) = outer_stretch * b`` (see :func:`cylinder_at_outer_stretch`)."""
+    _check_geometry(a, b, K, mu)
+    _check_load(load)
+    if not (math.isfinite(outer_stretch) and outer_stretch > 0):
+        raise ValueError(f"outer_stretch must be a number > 0, got {outer_stretch!r}")
+    lambda_r = _radial_stretch(0.0, outer_stretch, K, mu, hoop)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ode = scipy.integrate.solve_ivp(_equilibrium, (b, a), [outer_stretch * b, lambda_r], method="DOP853",
+                                        args=(K, mu, hoop), rtol=RTOL, atol=RTOL * 1e-2 * a, dense_output=True)
+    rho_a, lambda_r_a = ode.y[:, -1]
+    if ode.status != 0 or not (rho_a > 0 and lambda_r_a > 0):
+        raise RuntimeError(f"the radial ODE from rho(b)/b = {outer_stretch!r} does not reach R = a with positive "
+                           f"stretches: {ode.message}")
+    c = float(rho_a / a)
+    P1 = float(piola_stresses(lambda_r_a, c, K, mu, hoop)[0])
+    return RadialSolution(a, b, K, mu, _pressure(load, c, P1, hoop), load, c, ode.sol, hoop)
 
 
 def cylinder_at_outer_stretch(a: float, b: float, K: float, mu: float, outer_stretch: float,
@@ -373,21 +477,13 @@ def cylinder_at_outer_stretch(a: float, b: float, K: float, mu: float, outer_str
     outer_stretch : float > 0
         ``rho(b) / b``; above 1 for an internal pressure p > 0.
     """
-    _check_geometry(a, b, K, mu)
-    _check_load(load)
-    if not (math.isfinite(outer_stretch) and outer_stretch > 0):
-        raise ValueError(f"outer_stretch must be a number > 0, got {outer_stretch!r}")
-    lambda_r = _radial_stretch(0.0, outer_stretch, K, mu)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ode = scipy.integrate.solve_ivp(_equilibrium, (b, a), [outer_stretch * b, lambda_r], method="DOP853",
-                                        args=(K, mu), rtol=RTOL, atol=RTOL * 1e-2 * a, dense_output=True)
-    rho_a, lambda_r_a = ode.y[:, -1]
-    if ode.status != 0 or not (rho_a > 0 and lambda_r_a > 0):
-        raise RuntimeError(f"the radial ODE from rho(b)/b = {outer_stretch!r} does not reach R = a with positive "
-                           f"stretches: {ode.message}")
-    c = float(rho_a / a)
-    P1 = float(piola_stresses(lambda_r_a, c, K, mu)[0])
-    return RadialSolution(a, b, K, mu, _pressure(load, c, P1), load, c, ode.sol)
+    return _at_outer_stretch(a, b, K, mu, outer_stretch, load, 1)
+
+
+def sphere_at_outer_stretch(a: float, b: float, K: float, mu: float, outer_stretch: float,
+                            load: Load = "follower") -> RadialSolution:
+    """:func:`cylinder_at_outer_stretch` for the thick sphere (:func:`thick_sphere`)."""
+    return _at_outer_stretch(a, b, K, mu, outer_stretch, load, 2)
 
 
 def _walk(pressure: Callable[[float], float], t0: float, target: float) -> tuple[float, float, bool]:
@@ -408,9 +504,9 @@ def _walk(pressure: Callable[[float], float], t0: float, target: float) -> tuple
     raise RuntimeError(f"the pressure does not reach {target!r} up to ln(outer stretch) = {t!r}")
 
 
-def _pressure_path(a: float, b: float, K: float, mu: float, load: Load) -> Callable[[float], float]:
+def _pressure_path(a: float, b: float, K: float, mu: float, load: Load, hoop: int) -> Callable[[float], float]:
     """The pressure p as a function of t = ln(rho(b)/b)."""
-    return lambda t: cylinder_at_outer_stretch(a, b, K, mu, math.exp(t), load).p
+    return lambda t: _at_outer_stretch(a, b, K, mu, math.exp(t), load, hoop).p
 
 
 def _peak(pressure: Callable[[float], float], low: float, high: float) -> float:
@@ -418,6 +514,26 @@ def _peak(pressure: Callable[[float], float], low: float, high: float) -> float:
     found = scipy.optimize.minimize_scalar(lambda t: -pressure(t), bounds=(low, high), method="bounded",
                                            options={"xatol": 1e-12})
     return float(found.x)
+
+
+def _pressurized(a: float, b: float, K: float, mu: float, p: float, load: Load, hoop: int) -> RadialSolution:
+    """The radial solution under the pressure p (see :func:`pressurized_cylinder`)."""
+    _check_geometry(a, b, K, mu)
+    if not math.isfinite(p):
+        raise ValueError(f"pressure p must be finite, got {p!r}")
+    pressure = _pressure_path(a, b, K, mu, load, hoop)
+    if p == 0:
+        return _at_outer_stretch(a, b, K, mu, 1.0, load, hoop)
+    lame_outer = _lame(a, b, K, mu, p, hoop).u_r(b) / b
+    low, high, crossed = _walk(pressure, math.copysign(max(abs(math.log1p(lame_outer)), 1e-6), p), p)
+    if not crossed:
+        high = _peak(pressure, min(low, high), max(low, high))
+        if abs(pressure(high)) < abs(p):
+            raise ValueError(f"p = {p!r} exceeds the limit pressure {pressure(high)!r} of this "
+                             f"{'cylinder' if hoop == 1 else 'sphere'} ({load!r} load); "
+                             f"{'cylinder' if hoop == 1 else 'sphere'}_at_outer_stretch gives the path beyond it")
+    t = scipy.optimize.brentq(lambda t: pressure(t) - p, low, high, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    return _at_outer_stretch(a, b, K, mu, math.exp(t), load, hoop)
 
 
 def pressurized_cylinder(a: float, b: float, K: float, mu: float, p: float,
@@ -438,27 +554,82 @@ def pressurized_cylinder(a: float, b: float, K: float, mu: float, p: float,
         dead pressure, fixed per unit of reference surface: ``P1(a) = -p``; or a third medium in
         the hole carrying the cavity pressure: ``P1(a) = gamma dPsi_m/dlambda_r(c, c) - p c``.
     """
-    _check_geometry(a, b, K, mu)
-    if not math.isfinite(p):
-        raise ValueError(f"pressure p must be finite, got {p!r}")
-    pressure = _pressure_path(a, b, K, mu, load)
-    if p == 0:
-        return cylinder_at_outer_stretch(a, b, K, mu, 1.0, load)
-    lame_outer = lame_cylinder(a, b, K, mu, p).u_r(b) / b
-    low, high, crossed = _walk(pressure, math.copysign(max(abs(math.log1p(lame_outer)), 1e-6), p), p)
-    if not crossed:
-        high = _peak(pressure, min(low, high), max(low, high))
-        if abs(pressure(high)) < abs(p):
-            raise ValueError(f"p = {p!r} exceeds the limit pressure {pressure(high)!r} of this cylinder ({load!r} "
-                             "load); cylinder_at_outer_stretch gives the path beyond it")
-    t = scipy.optimize.brentq(lambda t: pressure(t) - p, low, high, xtol=1e-15, rtol=4 * np.finfo(float).eps)
-    return cylinder_at_outer_stretch(a, b, K, mu, math.exp(t), load)
+    return _pressurized(a, b, K, mu, p, load, 1)
+
+
+def thick_sphere(a: float, b: float, K: float, mu: float, p: float, follower: bool = True, *,
+                 medium: CavityMedium | None = None) -> RadialSolution:
+    """Finite-strain thick-walled sphere a < R < b of Eq. 2 (3D) under internal pressure p: the radial
+    solution of ``(R^2 P_r)' = 2 R P_theta`` with ``P_r(b) = 0`` and at R = a
+
+    * follower pressure (``follower=True``), on the deformed area: ``P_r(a) = -p (rho(a)/a)^2``;
+    * dead pressure (``follower=False``), per unit of reference area: ``P_r(a) = -p``;
+    * with ``medium``, a third medium filling the ball R < a and carrying the cavity pressure p
+      (energy ``gamma Psi_m - p (J - 1)``, deforming homogeneously):
+      ``P_r(a) = gamma dPsi_m/dlambda_r(c, c, c) - p c^2``, c = rho(a)/a.
+
+    Its ``lame`` is Lamé's small-strain solution at the same p (:func:`lame_sphere`); ``u_r(R)``,
+    ``inner_radius_change`` u_r(a), ``outer_radius_change`` u_r(b), ``cavity_volume_change``
+    ``4/3 pi (rho(a)^3 - a^3)`` (the whole sphere's; a 1/8 model: / 8), ``stretches``, ``sigma_r`` and
+    ``sigma_theta`` give the fields. Above the limit pressure (p(rho(b)) has a maximum) a ValueError
+    says so; :func:`sphere_at_outer_stretch` gives the path beyond.
+
+    Parameters
+    ----------
+    a, b, K, mu, p : float
+        Radii 0 < a < b, moduli of Eq. 2 and the pressure, as :func:`pressurized_cylinder`.
+    follower : bool
+        Follower (True) or dead (False) pressure; ignored with ``medium``.
+    medium : CavityMedium, optional
+        The third medium in the cavity.
+    """
+    load: Load = medium if medium is not None else ("follower" if follower else "dead")
+    return _pressurized(a, b, K, mu, p, load, 2)
 
 
 def limit_pressure(a: float, b: float, K: float, mu: float, load: Load = "follower") -> RadialSolution:
     """The radial solution at the largest internal pressure the cylinder carries (the maximum of p
     along the path :func:`cylinder_at_outer_stretch`; its p is the limit pressure)."""
     _check_geometry(a, b, K, mu)
-    pressure = _pressure_path(a, b, K, mu, load)
+    pressure = _pressure_path(a, b, K, mu, load, 1)
     low, high, _ = _walk(pressure, 1e-2, math.inf)
-    return cylinder_at_outer_stretch(a, b, K, mu, math.exp(_peak(pressure, low, high)), load)
+    return _at_outer_stretch(a, b, K, mu, math.exp(_peak(pressure, low, high)), load, 1)
+
+
+class HertzContact(NamedTuple):
+    """Hertz's elastic sphere-on-body contact (:func:`hertz_sphere`).
+
+    Attributes
+    ----------
+    a : float
+        Contact radius ``(3 F R / (4 E*))^(1/3)``.
+    p0 : float
+        Peak pressure ``3 F / (2 pi a^2)`` (the pressure is ``p0 sqrt(1 - r^2 / a^2)``).
+    delta : float
+        Indentation (approach of the two bodies' far points) ``a^2 / R``.
+    E_star : float
+        Contact modulus, ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2``.
+    """
+
+    a: float
+    p0: float
+    delta: float
+    E_star: float
+
+
+def hertz_sphere(F: float, R: float, E1: float, nu1: float, E2: float = math.inf, nu2: float = 0.0) -> HertzContact:
+    """Hertz's contact of a sphere of radius R (E2, nu2) pressed by the force F into a flat elastic
+    half-space (E1, nu1) (small strain, frictionless; E2 = inf: a rigid sphere).
+
+    F is the whole sphere's force: a quarter model carries F / 4. A body of E, nu given by the bulk and
+    shear modulus of Eq. 2 has ``E = 9 K mu / (3 K + mu)``, ``nu = (3 K - 2 mu) / (2 (3 K + mu))``.
+    """
+    for name, value in (("F", F), ("R", R), ("E1", E1), ("E2", E2)):
+        if not (value > 0):
+            raise ValueError(f"hertz_sphere: {name} must be > 0, got {value!r}")
+    for name, value in (("nu1", nu1), ("nu2", nu2)):
+        if not (-1.0 < value <= 0.5):
+            raise ValueError(f"hertz_sphere: Poisson's ratio {name} must lie in (-1, 0.5], got {value!r}")
+    E_star = 1.0 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
+    a = (3 * F * R / (4 * E_star)) ** (1 / 3)
+    return HertzContact(a, 3 * F / (2 * math.pi * a ** 2), a ** 2 / R, E_star)

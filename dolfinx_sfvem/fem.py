@@ -434,6 +434,11 @@ class LagrangeDiscretization(Discretization):
         A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         return A
 
+    def coarse_interpolation(self) -> PETSc.Mat:
+        """The P1/Q1 vector space on the same mesh interpolated into the P2/Q2 unknowns
+        (:meth:`Discretization.coarse_interpolation`)."""
+        return _compat.interpolation_matrix(_compat.vector_function_space(self.mesh, 1), self.V)
+
     # ------------------------------------------------------------------ assembly
     def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
         """Internal force b = ∂Π/∂u at x (ghosts of x must be current); ghost contributions

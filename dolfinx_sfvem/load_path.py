@@ -32,13 +32,15 @@ from petsc4py import PETSc
 
 from .adaptivity import Adaptivity
 from .equilibrium import Equilibrium
+from .gamma_continuation import ContinuedStepSolver, GammaContinuation
 from .interrupt import StopRequest
-from .logs import say
+from .logs import say, warn
 from .loads import VectorLoad
 from .run_output import RunWriter, progress_line, read_checkpoint
 from .run_summary import STOPPED_BY_SIGNAL, Observer, Result, StepRecord
 from .problem import ContactProblem
 from .snes import NewtonResult, SNESNewton, SolveFailed
+from .stability import final_stability, instability, is_stable
 from .step_solver import StepSolver
 from .stepping import Attempt, Control, LoadStepping
 
@@ -69,7 +71,7 @@ class LoadPath:
                  observers: typing.Mapping[str, Observer] | None = None, raise_on_failure: bool = False,
                  resume: bool = False, from_current_state: bool = False, until: float = 1.0,
                  adapt: Adaptivity | None = None, pressure_at: typing.Iterable[float] = (),
-                 handle_signals: bool | None = None):
+                 handle_signals: bool | None = None, gamma_start: float | None = None):
         self.problem = problem
         self.control = control
         self.out = pathlib.Path(out) if out is not None else None
@@ -82,12 +84,27 @@ class LoadPath:
         self.adapt = adapt
         self.pressure_at = tuple(pressure_at)
         self.handle_signals = handle_signals
+        self.continuation = None
+        if gamma_start is not None:
+            if control.traces_unstable_branches:
+                raise ValueError("gamma_start needs a prescribed load factor (LoadStepping): under arc-length "
+                                 "the load factor is an unknown")
+            self.continuation = GammaContinuation(problem.materials, gamma_start, until)
+            self.observers["gamma"] = lambda _: self.continuation.current()
         self.earlier_wall_time = 0.0          # of the stopped run a resumed path continues
         self.records: list[dict] = []
 
     # ------------------------------------------------------------------ the run
     def run(self) -> Result:
-        """Solve the path; returns its :class:`Result` (see :meth:`ContactProblem.solve`)."""
+        """Solve the path; returns its :class:`Result` (see :meth:`ContactProblem.solve`). A
+        continued gamma (``gamma_start``) is back at the asked values afterwards."""
+        try:
+            return self._run()
+        finally:
+            if self.continuation is not None:
+                self.continuation.restore()
+
+    def _run(self) -> Result:
         p = self.problem
         rebalance = self.from_current_state and p.solved and not self.resume
         if self.adapt is not None:
@@ -122,6 +139,7 @@ class LoadPath:
                             p.load = attempt.load
                             p.x.copy(converged_x)
                             self._progress(rec)
+                            self._warn_instability(rec)
                             if writer is not None:
                                 writer.step(self.records, self._wall(), solver.contact[1])
                             if self.control.passed(rec):
@@ -173,8 +191,12 @@ class LoadPath:
         constraints = p.constraints()
         p.disc.set_constraints(constraints.dofs)
         equilibrium = p.equilibrium()
-        return StepSolver(equilibrium, SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix), p.x,
-                          constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
+        newton = SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix, p.linear_solver)
+        parts = (equilibrium, newton, p.x,
+                 constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
+        if self.continuation is None:
+            return StepSolver(*parts)
+        return ContinuedStepSolver(*parts, continuation=self.continuation)
 
     def _wall(self) -> float:
         return time.perf_counter() - self.t_start + self.earlier_wall_time
@@ -259,6 +281,7 @@ class LoadPath:
                          kinked_elements=res.kinked, negative_pivots=res.negative_pivots, failure=res.failure,
                          wall_time_s=attempt.wall_time_s)
         if attempt.converged:
+            rec.stable = is_stable(res.negative_pivots, self.control.traces_unstable_branches)
             gap, pressure = solver.contact
             rec.gap = gap.as_dict()
             rec.contact = [pair.as_dict() for pair in pressure.pairs]
@@ -303,10 +326,23 @@ class LoadPath:
             p.verbose, p.comm)
         return records
 
+    def _warn_instability(self, rec: StepRecord) -> None:
+        """A warning when the path enters unstable states (:mod:`~dolfinx_sfvem.stability`): at the
+        first unstable converged step after a stable one (or the start)."""
+        previous = [r for r in self.records[:-1] if r["converged"]]
+        if rec.stable is False and (not previous or previous[-1].get("stable") is not False) \
+                and self.problem.comm.rank == 0:
+            warn(log, f"step {rec.step}: {instability(rec.load, rec.negative_pivots)}")
+
     def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
-        """The content of summary.json."""
+        """The content of summary.json (``stable``: of the last converged state, :mod:`~dolfinx_sfvem.stability`)."""
         p = self.problem
-        description = p.describe()
+        if self.continuation is None:
+            description = p.describe()
+        else:
+            with self.continuation.as_asked():
+                description = p.describe()
+            description["parameters"]["gamma_continuation"] = self.continuation.describe()
         return {
             "method": description.pop("method"),
             "dofs": description.pop("dofs"),
@@ -314,6 +350,7 @@ class LoadPath:
             "ranks": int(p.comm.size),
             "wall_time_s": wall,
             "converged": bool(converged),
+            "stable": final_stability(records),
             "message": message,
             "parameters": {**description.pop("parameters"), "control": self.control.describe()},
             "steps": records,
@@ -329,8 +366,13 @@ class LoadPath:
             writer.finish(summary, p.point_displacements(), p.contact_pressure(), p.boundary)
         if message:
             say(log, f"run stopped: {message}", True, p.comm)
+        stable = summary["stable"]
+        if stable is False and p.comm.rank == 0:
+            last = [r for r in self.records if r["converged"]][-1]
+            warn(log, f"the path {'reached' if converged else 'stopped at'} load factor {p.load:.6g}, but "
+                      f"{instability(last['load'], last['negative_pivots'])}: not an answer")
         return Result(converged, p.load, [r for r in self.records if r["converged"]], self.records, wall, summary,
-                      message)
+                      message, stable)
 
     def _progress(self, rec: StepRecord) -> None:
         """The progress line of a converged step (:func:`~dolfinx_sfvem.run_output.progress_line`)."""
@@ -345,7 +387,8 @@ class _Relaxation:
         disc = solver.equilibrium.disc
         self.x = solver.x
         self.equilibrium = Equilibrium(disc, [VectorLoad("relaxation", disc, r0, 1.0)])
-        self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix)
+        self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix,
+                                 solver.newton.linear_solver)
         self.g = solver.equilibrium.load * solver.final
 
     def solve_at(self, s: float) -> NewtonResult:

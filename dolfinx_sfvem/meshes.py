@@ -1,17 +1,21 @@
-"""Polygonal meshes for users: the paper's benchmark geometries and the tools that make meshes.
+"""Meshes for users: the paper's benchmark geometries, the 3D benchmarks and the tools that make meshes.
 
-Every generator returns a :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` whose polygons carry an
-integer region tag (:data:`SOLID`, :data:`MEDIUM`, ...). This module only gathers names: the
-geometries live in :mod:`dolfinx_sfvem.benchmarks`, the mesh-making tools in
-:mod:`dolfinx_sfvem.meshing`.
+Every 2D generator returns a :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` whose polygons carry an
+integer region tag (:data:`SOLID`, :data:`MEDIUM`, ...); every 3D one a
+:class:`~dolfinx_sfvem.cell_mesh.CellMesh` of tetrahedra or hexahedra with the same tags. This module
+only gathers names: the geometries live in :mod:`dolfinx_sfvem.benchmarks` and
+:mod:`dolfinx_sfvem.benchmarks3d`, the mesh-making tools in :mod:`dolfinx_sfvem.meshing`.
 """
 from .benchmarks import (BASE_LAYER, CBOX_COLUMN, FIRST_CHAMBER, MEDIUM, SOLID, Arc, Benchmark, PneuNet, box, cbox,
                          cbox_grid, multi_object, pneumatic_actuator, punch, shallow_arch, thick_cylinder)
+from .benchmarks3d import SPHERE, Benchmark3D, Plane, PneuNet3D, SphereSurface, cbox3d, hertz3d, pneunet3d, thick_sphere
 from .meshing.diagnostics import describe, t_junctions
 from .meshing.dual import dual_polygons
 from .meshing.gmsh_duals import polygon_rectangle
 from .meshing.gmsh_io import from_gmsh, gmsh_session, model_cells, region_names, write_gmsh
+from .meshing.gmsh3d import from_gmsh_3d
 from .meshing.grids import quad_rectangle, quads_with_hanging_nodes
+from .meshing.hexahedra import box_grid, extrude, split_hexahedra
 from .meshing.npz import NPZ_FORMAT, read_polygons, write_polygons
 from .meshing.polygon_sets import PolygonSet, glue
 
@@ -19,4 +23,6 @@ __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_g
            "thick_cylinder", "shallow_arch", "BASE_LAYER", "FIRST_CHAMBER", "PneuNet", "pneumatic_actuator",
            "PolygonSet", "glue", "dual_polygons", "quad_rectangle", "quads_with_hanging_nodes", "polygon_rectangle",
            "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
-           "write_polygons", "NPZ_FORMAT", "describe", "t_junctions"]
+           "write_polygons", "NPZ_FORMAT", "describe", "t_junctions",
+           "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "thick_sphere",
+           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d"]

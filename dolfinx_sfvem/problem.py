@@ -35,6 +35,7 @@ from .cell_mesh import CellMesh
 from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
 from .energy import Energy
 from .equilibrium import Equilibrium
+from .linear_solvers import linear_solver_options
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
 from .refine import Refinement, refine_mesh
@@ -158,6 +159,11 @@ class ContactProblem:
     petsc_options_prefix
         Options prefix of this problem's solvers: command-line options reach them as
         ``-<prefix>snes_monitor`` (default ``tmc_``), unprefixed ones never do.
+    linear_solver
+        ``"direct"`` (default: MUMPS LDLᵀ, with the tangent's negative pivots) or ``"iterative"``
+        (GMRES + p-multigrid: MUMPS on the degree-1 coarse space, for large 3D problems; no
+        negative pivots; :mod:`~dolfinx_sfvem.linear_solvers`, docs/guide/solving.md);
+        ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
@@ -187,7 +193,7 @@ class ContactProblem:
                  method: str = "vem",
                  comm: MPI.Comm = MPI.COMM_WORLD, *, overlap_tolerance: float = OVERLAP_TOLERANCE,
                  petsc_options: typing.Mapping[str, typing.Any] | None = None,
-                 petsc_options_prefix: str = DEFAULT_PREFIX, **options):
+                 petsc_options_prefix: str = DEFAULT_PREFIX, linear_solver: str = "direct", **options):
         if method not in ("vem", "fem"):
             raise ValueError(f"unknown method {method!r}; use 'vem' or 'fem'")
         if not (isinstance(petsc_options_prefix, str) and petsc_options_prefix and not petsc_options_prefix.startswith("-")):
@@ -203,6 +209,8 @@ class ContactProblem:
         self.verbose = options.get("verbose", True)
         self.petsc_options = {k.lstrip("-"): v for k, v in (petsc_options or {}).items()}
         self.petsc_options_prefix = petsc_options_prefix
+        linear_solver_options(linear_solver)                                   # checks the name
+        self.linear_solver = linear_solver
         self._options = dict(options, overlap_tolerance=overlap_tolerance)   # to rebuild in :meth:`refine`
         self.materials = _materials_by_tag(mesh, materials)
         self.bcs: list[BoundaryCondition] = []
@@ -579,7 +587,8 @@ class ContactProblem:
               observers: typing.Mapping[str, Observer] | None = None,
               raise_on_failure: bool = False, resume: bool = False, from_current_state: bool = False,
               until: float = 1.0, adapt: Adaptivity | None = None,
-              pressure_at: typing.Iterable[float] = (), handle_signals: bool | None = None) -> Result:
+              pressure_at: typing.Iterable[float] = (), handle_signals: bool | None = None,
+              gamma_start: float | None = None) -> Result:
         """Follow the load path from load factor 0 (or the current one) to ``until``.
 
         Prescribed displacements and loads are ramped together by the load factor λ. The
@@ -636,6 +645,11 @@ class ContactProblem:
             at once); None (default): in a script's main thread, not in a Jupyter kernel, where
             Ctrl-C interrupts at once (:mod:`~dolfinx_sfvem.interrupt`). An interrupted path keeps
             its converged steps: the state is put back to the last one and the outputs written.
+        gamma_start
+            Continuation in the third medium's gamma (:mod:`~dolfinx_sfvem.gamma_continuation`):
+            every :class:`ThirdMedium` starts the path at this gamma, which falls log-linearly with
+            the load factor to the medium's own gamma at ``until``; for a very weak medium that
+            otherwise stalls or ends on an unstable state (docs/guide/medium.md). Default: off.
         """
         if self.solved and not (from_current_state or resume):
             raise ValueError("this problem has been solved already; call reset() to start again from the "
@@ -658,7 +672,8 @@ class ContactProblem:
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,
-                        until=until, adapt=adapt, pressure_at=pressure_at, handle_signals=handle_signals).run()
+                        until=until, adapt=adapt, pressure_at=pressure_at, handle_signals=handle_signals,
+                        gamma_start=gamma_start).run()
 
     def describe(self) -> dict:
         """The problem's identity for summary.json: ``method``, ``dofs``, ``discretization`` (the

@@ -36,7 +36,7 @@ CHECKPOINT = "checkpoint.npz"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: summary.json entries that may differ between a stopped run and its resumption
-_RUN_ENTRIES = ("wall_time_s", "converged", "message", "steps", "ranks")
+_RUN_ENTRIES = ("wall_time_s", "converged", "stable", "message", "steps", "ranks")
 
 
 def problem_identity(summary: typing.Mapping[str, typing.Any]) -> dict[str, typing.Any]:
@@ -116,13 +116,17 @@ def read_checkpoint(out: pathlib.Path, summary_now: typing.Mapping[str, typing.A
 
 
 def progress_line(rec: StepRecord) -> str:
-    """One line per converged step: Newton, J, gap, negative pivots of the tangent (when any),
+    """One line per converged step: Newton, J, gap, negative pivots of the tangent (when any;
+    UNSTABLE when they make the state an unstable equilibrium, :mod:`~dolfinx_sfvem.stability`),
     time, the first prescribed condition's reaction and the first load's magnitude and
     work-conjugate displacement (the full record is in summary.json and load_path.csv)."""
     res = rec.residual_norms[-1] if rec.residual_norms else float("nan")
     gap = rec.gap["value"] if rec.gap and rec.gap["value"] is not None else float("inf")
     kinked = f"  kinked {rec.kinked_elements}" if rec.kinked_elements else ""
-    kinked += f"  negative pivots {rec.negative_pivots}" if rec.negative_pivots else ""
+    if rec.stable is False:
+        kinked += f"  UNSTABLE ({rec.negative_pivots} negative pivot{'' if rec.negative_pivots == 1 else 's'})"
+    elif rec.negative_pivots:
+        kinked += f"  negative pivots {rec.negative_pivots}"
     loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
     reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
     load = next(iter(rec.loads.items()), None)

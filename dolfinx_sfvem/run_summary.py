@@ -20,7 +20,7 @@ RUNNING = "running"
 #: ``message`` of a run stopped by SIGINT/SIGTERM (followed by the signal number)
 STOPPED_BY_SIGNAL = "stopped by signal"
 #: summary entries of the run itself; every other top-level entry is a fact of the discretization
-_RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "message", "parameters", "steps")
+_RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "stable", "message", "parameters", "steps")
 
 
 #: an observer of a load path: ``f(problem)`` returns one number, or several named ones
@@ -49,6 +49,10 @@ class Result:
         The content of summary.json.
     message : str
         Why the run stopped ("" if it converged).
+    stable : bool or None
+        Whether the last converged state is a stable equilibrium (:mod:`~dolfinx_sfvem.stability`):
+        False when its tangent has negative pivots on a path under load or displacement control,
+        None when not known (no LDLᵀ factorization, or arc-length control).
     """
     converged: bool
     load: float
@@ -57,6 +61,7 @@ class Result:
     wall_time_s: float
     summary: dict
     message: str = ""
+    stable: bool | None = None
 
 
 @dataclasses.dataclass
@@ -72,6 +77,7 @@ class StepRecord:
     min_J: float = float("nan")
     kinked_elements: int = 0
     negative_pivots: int | None = None
+    stable: bool | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = dataclasses.field(default_factory=list)
@@ -106,6 +112,10 @@ class Step:
     negative_pivots : int or None
         Negative eigenvalues of the tangent at the last state Newton factorized (MUMPS LDL^T
         inertia; None without it, and in files of older versions).
+    stable : bool or None
+        False: a converged state with negative pivots under load or displacement control, an
+        unstable equilibrium (:mod:`~dolfinx_sfvem.stability`); None: not known (no LDLᵀ,
+        arc-length control, a failed attempt, files of older versions).
     failure : str
         Why a failed step failed ("" if converged).
     gap : dict or None
@@ -137,6 +147,7 @@ class Step:
     min_J: float | None = None
     kinked_elements: int = 0
     negative_pivots: int | None = None
+    stable: bool | None = None
     failure: str = ""
     gap: dict | None = None
     contact: list[dict] = dataclasses.field(default_factory=list)
@@ -218,6 +229,13 @@ class RunSummary:
         """The last converged step (None if there is none)."""
         steps = self.converged_steps
         return steps[-1] if steps else None
+
+    @property
+    def stable(self) -> bool | None:
+        """Whether the last converged state is a stable equilibrium (:attr:`Step.stable`; None
+        if not known or no step converged)."""
+        final = self.final_step
+        return final.stable if final is not None else None
 
     @property
     def load_reached(self) -> float:

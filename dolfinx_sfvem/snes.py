@@ -50,6 +50,7 @@ from petsc4py import PETSc
 from . import _compat
 from .discretization import AssemblyInfo
 from .equilibrium import Equilibrium
+from .linear_solvers import configure_ksp, linear_solver_options, rigid_body_modes
 
 #: options prefix of a problem's solvers unless the user gives another
 DEFAULT_PREFIX = "tmc_"
@@ -239,9 +240,16 @@ class SNESNewton:
         round-off level of the residual (:meth:`absolute_tolerance`).
     prefix
         Options prefix of the SNES, KSP and PC.
+    linear_solver
+        A preset of :data:`~dolfinx_sfvem.linear_solvers.LINEAR_SOLVERS` over the defaults
+        (``"direct"``: MUMPS; ``"iterative"``: GMRES + p-multigrid over the discretization's
+        degree-1 coarse space, :meth:`Discretization.coarse_interpolation`); the command line and
+        ``options`` win over it. The tangent always carries the rigid-body near-nullspace (for
+        GAMG, chosen by options).
     """
 
-    def __init__(self, equilibrium: Equilibrium, options: Options | None = None, prefix: str = DEFAULT_PREFIX):
+    def __init__(self, equilibrium: Equilibrium, options: Options | None = None, prefix: str = DEFAULT_PREFIX,
+                 linear_solver: str = "direct"):
         self.equilibrium = equilibrium
         disc = equilibrium.disc
         self.disc = disc
@@ -250,6 +258,7 @@ class SNESNewton:
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
         self.A = disc.create_matrix()
+        self.A.setNearNullSpace(rigid_body_modes(disc.x_nodes, disc.n_owned_nodes, disc.create_vector))
         self.b = disc.create_vector()
         #: internal minus external force at the state ``_force_state``, constraints not applied
         #: (the last residual SNES evaluated, or :meth:`force_at`'s)
@@ -269,9 +278,13 @@ class SNESNewton:
         snes.setJacobian(self._jacobian, self.A)
         snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
         self.options = dict(options or {})
-        if not equilibrium.symmetric:
-            self.options.setdefault("pc_type", "lu")
-        with prefixed_options(prefix, self.options) as scoped:
+        self.linear_solver = linear_solver
+        self.defaults = {**DEFAULT_PETSC_OPTIONS, **linear_solver_options(linear_solver)}
+        if not equilibrium.symmetric:            # LDLᵀ would be wrong: LU, for the tangent or the coarse level
+            self.options.setdefault("pc_type" if linear_solver == "direct" else "mg_coarse_pc_type", "lu")
+        with prefixed_options(prefix, self.options, self.defaults) as scoped:
+            if PETSc.Options().getString(prefix + "pc_type", "") == PETSc.PC.Type.MG:
+                configure_ksp(self.ksp, disc.coarse_interpolation())
             snes.setFromOptions()
             self.scaled_atol = "snes_atol" not in scoped.given
             self.fallback = "snes_linesearch_type" not in scoped.given
@@ -399,7 +412,7 @@ class SNESNewton:
 
     def _set_line_search(self, kind: str) -> None:
         """Set SNES up again from this solver's options with the line search ``kind``."""
-        with prefixed_options(self.prefix, {**self.options, "snes_linesearch_type": kind}):
+        with prefixed_options(self.prefix, {**self.options, "snes_linesearch_type": kind}, self.defaults):
             self.snes.setFromOptions()
         self.snes.setLineSearchPreCheck(self._unlift)
 

@@ -244,6 +244,66 @@ class VEMSpace:
         """A ghosted PETSc vector of SFVEM unknowns (block size 2)."""
         return _compat.create_petsc_vector(self.index_map, 2)
 
+    def coarse_interpolation(self) -> PETSc.Mat:
+        """The vertex values of a coarse field into the SFVEM unknowns: a vertex node keeps its
+        value, an edge midpoint takes the mean of its edge's two vertices, the mean of a polygon
+        the weights of its vertices that reproduce the area centroid with the least norm; so every
+        linear field is reproduced exactly (AIJ, unknowns x 2 vertex nodes, block size 2)."""
+        weights = self._coarse_weights()                # (local node, local vertex node, weight)
+        is_vertex = self.node_kind == VERTEX
+        n_owned = self.n_owned_nodes
+        owned_vertices = np.flatnonzero(is_vertex[:n_owned])
+        offset = self.comm.exscan(owned_vertices.size) or 0
+        coarse = _compat.create_petsc_vector(self.index_map, 1)    # global coarse index of each vertex node
+        with coarse.localForm() as c:
+            c.set(-1.0)
+            c.array[owned_vertices] = offset + np.arange(owned_vertices.size)
+        coarse.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with coarse.localForm() as c:
+            coarse_of_node = c.array.astype(np.int64)
+        coarse.destroy()
+        row, col, w = weights
+        W = scipy.sparse.csr_matrix((w, (row, coarse_of_node[col])),
+                                    shape=(n_owned, self.comm.allreduce(owned_vertices.size)))
+        P = scipy.sparse.kron(W, scipy.sparse.identity(2), format="csr")
+        P.sort_indices()
+        return PETSc.Mat().createAIJ(((2 * n_owned, PETSc.DETERMINE), (2 * owned_vertices.size, PETSc.DETERMINE)),
+                                     bsize=2, csr=(P.indptr.astype(PETSc.IntType), P.indices.astype(PETSc.IntType),
+                                                   P.data), comm=self.comm)
+
+    def _coarse_weights(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(node, vertex node, weight) triplets of :meth:`coarse_interpolation` for the owned
+        nodes, each pair once (a node shared by polygons gets the same weights from each)."""
+        mesh = self.polygon_mesh
+        N = mesh.offsets[self.polygons + 1] - mesh.offsets[self.polygons]
+        first = self.dof_offsets[:-1]
+        vertex = self.dofs[concatenated_ranges(first, N)]                    # (sum N,) vertex nodes
+        v_first = np.concatenate([[0], np.cumsum(N)[:-1]])
+        k = np.arange(vertex.size) - np.repeat(v_first, N)
+        v_next = vertex[np.repeat(v_first, N) + (k + 1) % np.repeat(N, N)]
+        mid = self.dofs[concatenated_ranges(first + N, N)]
+        rows = [vertex, mid, mid]
+        cols = [vertex, vertex, v_next]
+        vals = [np.ones(vertex.size), np.full(mid.size, 0.5), np.full(mid.size, 0.5)]
+        for n in np.unique(N):                      # the polygon means, by vertex count
+            polys = np.flatnonzero(N == n)
+            verts = vertex[(v_first[polys][:, None] + np.arange(n)).reshape(-1)].reshape(-1, n)
+            X = self.x_nodes[verts]                                            # (m, n, 2)
+            Xn = np.roll(X, -1, axis=1)
+            cross = X[..., 0] * Xn[..., 1] - Xn[..., 0] * X[..., 1]
+            centroid = ((X + Xn) * cross[..., None]).sum(axis=1) / (3 * cross.sum(axis=1))[:, None]
+            B = np.concatenate([np.ones((polys.size, 1, n)), X.transpose(0, 2, 1)], axis=1)  # (m, 3, n)
+            rhs = np.concatenate([np.ones((polys.size, 1)), centroid], axis=1)
+            w = np.einsum("mij,mi->mj", B, np.linalg.solve(B @ B.transpose(0, 2, 1), rhs[..., None])[..., 0])
+            rows.append(np.repeat(self.dofs[first[polys] + 2 * n], n))
+            cols.append(verts.reshape(-1))
+            vals.append(w.reshape(-1))
+        row, col, val = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        owned = row < self.n_owned_nodes
+        row, col, val = row[owned], col[owned], val[owned]
+        entry = np.unique(row * self.n_local_nodes + col, return_index=True)[1]   # a shared node once
+        return row[entry], col[entry], val[entry]
+
     # ------------------------------------------------------------------ location
     def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
                      tags: typing.Iterable[int] | None = None) -> np.ndarray:

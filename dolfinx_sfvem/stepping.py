@@ -55,12 +55,16 @@ class Control(abc.ABC):
         The path ended by another criterion than ``until`` (:meth:`passed`).
     previous : PETSc.Vec or None
         The converged state before the last one (predictors, directions; kept in checkpoints).
+    traces_unstable_branches : bool
+        The path may run on unstable branches (arc-length); otherwise a converged state with
+        negative pivots is reported unstable (:mod:`~dolfinx_sfvem.stability`).
     """
 
     load: float
     until: float
     finished: bool = False
     previous: PETSc.Vec | None = None
+    traces_unstable_branches: bool = False
 
     @abc.abstractmethod
     def start(self, load: float, until: float) -> None:

@@ -109,6 +109,10 @@ class SFVEMDiscretization(Discretization):
     def create_vector(self) -> PETSc.Vec:
         return self.space.create_vector()
 
+    def coarse_interpolation(self) -> PETSc.Mat:
+        """The vertex values into the unknowns (:meth:`VEMSpace.coarse_interpolation`)."""
+        return self.space.coarse_interpolation()
+
     def create_matrix(self) -> PETSc.Mat:
         """AIJ matrix with the COO pattern: polygon blocks, then the owned diagonal (zero entries)."""
         space = self.space

@@ -15,9 +15,12 @@ returned as they are; ``polygon`` and ``tabulated_name`` run a test once per tes
 - PolygonMesh builders and checks (test_polygon_mesh, test_polygon_mesh_fuzz): ``square_grid``,
   ``hanging_mesh``, ``glue``, ``shoelace``, ``assert_valid_mesh``, ``assert_valid_triangulation``,
   ``assert_deepest_diagonal``, ``nonconvex`` (polygons to triangulate).
+- ``box_grid``: structured 3D grids of hexahedra or tetrahedra as the arrays of a ``CellMesh``
+  (test_solid_surface, test_pictures3d).
 """
 import json
 import pathlib
+import typing
 
 import numpy as np
 import pytest
@@ -472,6 +475,32 @@ class NonconvexPolygons:
     SPIRAL = np.array([(0, 0), (4, 0), (4, 4), (1, 4), (1, 2), (2, 2), (2, 3), (3, 3), (3, 1), (0, 1)], dtype=float)
 
 
+class CellArrays(typing.NamedTuple):
+    """The fields of a 3D mesh the contact geometry and the pictures read (a stand-in of ``CellMesh``)."""
+    points: np.ndarray
+    cells: np.ndarray
+    tags: np.ndarray
+    cell_type: str
+
+
+def box_grid(xs, ys, zs, tag=lambda centre: 1, cell_type="hexahedron") -> CellArrays:
+    """A structured grid of the box with grid lines ``xs``, ``ys``, ``zs``: hexahedra in DOLFINx's
+    vertex order, or each split into six tetrahedra about its diagonal (conforming); ``tag(centre)``
+    gives the tag of a cell from its centre (3,)."""
+    xs, ys, zs = (np.asarray(v, dtype=float) for v in (xs, ys, zs))
+    nx, ny = xs.size, ys.size
+    points = np.stack(np.meshgrid(xs, ys, zs, indexing="ij"), axis=-1).transpose(2, 1, 0, 3).reshape(-1, 3)
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(xs.size - 1), np.arange(ys.size - 1), np.arange(zs.size - 1),
+                                               indexing="ij"))
+    corner = i + nx * j + nx * ny * k
+    hexes = np.stack([corner + di + nx * dj + nx * ny * dk for dk in (0, 1) for dj in (0, 1) for di in (0, 1)], axis=1)
+    tags = np.array([tag(c) for c in points[hexes].mean(axis=1)], dtype=np.int64)
+    if cell_type == "hexahedron":
+        return CellArrays(points, hexes, tags, cell_type)
+    kuhn = np.array([[0, 1, 3, 7], [0, 1, 5, 7], [0, 4, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 6, 7]])
+    return CellArrays(points, hexes[:, kuhn].reshape(-1, 4), np.repeat(tags, 6), "tetrahedron")
+
+
 nonconvex_fixture = shared(NonconvexPolygons, "nonconvex")
 
 
@@ -483,7 +512,7 @@ for _helper in (square_with_hanging_nodes, Quadratic, as_csr, build_one, polygon
                 two_region_materials, nodal_field, state_of, direction_of,
                 summary_content, write_summary,
                 shoelace, square_grid, assert_valid_triangulation, assert_deepest_diagonal, assert_valid_mesh,
-                hanging_mesh, glue):
+                hanging_mesh, glue, box_grid):
     globals()[f"{_helper.__name__}_fixture"] = shared(_helper)
 
 

@@ -131,3 +131,20 @@ def test_cbox_fem_cells(tmp_path, cells, cell_type):
     assert summary.converged and summary.discretization["cell_type"] == cell_type
     if cells is None:                     # h = 0.1: 11 x 5 rectangles, (2 * 11 + 1) (2 * 5 + 1) nodes
         assert summary.discretization["cells"] == 55 and summary.dofs == 2 * 23 * 11
+
+
+def test_gamma_start_reaches_the_path(tmp_path):
+    """--gamma-start G0: the medium is solved at G0^(1 - λ) gamma^λ per step, summary.json keeps the
+    asked gamma and the schedule; without the option nothing of it is recorded (earlier runs'
+    parameters unchanged)."""
+    proc = run_demo("cbox", *SMALL, "--method", "vem", "--gamma-start", "1e-3", out=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = read_summary(tmp_path)
+    assert summary.parameters["gamma_continuation"]["gamma_start"] == 1e-3
+    assert summary.parameters["materials"]["2"]["gamma"] == 1e-5
+    for step in summary.converged_steps:
+        assert step.extra["gamma"] == pytest.approx(1e-3 ** (1 - step.load) * 1e-5 ** step.load, rel=1e-12)
+    plain = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path / "plain")
+    assert plain.returncode == 0, plain.stderr
+    params = read_summary(tmp_path / "plain").parameters
+    assert "gamma_start" not in params and "gamma_continuation" not in params

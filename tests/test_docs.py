@@ -78,3 +78,15 @@ def test_three_d_example_of_the_guide_solves():
                                                   P(np.diag([v[0], v[1], v[1]]))[1, 1]], [1.0, 1.0], xtol=1e-14)
     assert namespace["result"].converged
     assert namespace["stretch"] == pytest.approx(stretch - 1, rel=1e-9)
+
+
+def test_every_demo_with_a_figure_shows_it_in_the_gallery(tmp_path):
+    """A demo's pictures are found whether named <demo>.png or <demo>-*.png (the snap-through page
+    once showed "(no pictures yet)" beside docs/figures/snap-through.png)."""
+    for file in ("snap-through.png", "snap-through-curves.png", "snap-through-extra.txt", "snapper-x.png"):
+        (tmp_path / file).write_bytes(b"")
+    assert [file for file, _ in sitegen.figures_of("snap_through", tmp_path)] == ["snap-through.png",
+                                                                                  "snap-through-curves.png"]
+    demos, _ = sitegen.demo_names()
+    with_figures = {name for name in demos if sitegen.figures_of(name)}
+    assert "snap_through" in with_figures

@@ -70,8 +70,8 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
 API_GROUPS = (
     ("Problem and load path", "Define a problem, solve it, control the path.",
      ("ContactProblem", "LoadStepping", "ArcLength", "SolveFailed", "Adaptivity", "Compression", "NearContact")),
-    ("Meshes", "Polygon meshes, meshes of tetrahedra or hexahedra (3D), the paper's geometries and the "
-     "mesh-making tools (``sf.meshes``).",
+    ("Meshes", "Polygon meshes, meshes of tetrahedra or hexahedra (3D), the paper's geometries, the 3D "
+     "benchmarks and the mesh-making tools (``sf.meshes``).",
      ("PolygonMesh", "CellMesh", "meshes")),
     ("Materials", "Region energies written once in UFL (paper Eqs. 2-17).",
      ("Energy", "Hyperelastic", "ThirdMedium", "UserEnergy")),
@@ -106,10 +106,12 @@ def module_docstring(path: pathlib.Path) -> str:
 
 
 def figures_of(name: str, figures: pathlib.Path = FIGURES) -> list[tuple[str, str]]:
-    """The pictures of demo ``name``: :data:`FIGURES_OF`, else every ``<name>-*.png`` (``_`` as ``-``)
-    with its file name as caption. ValueError naming a listed picture that does not exist."""
+    """The pictures of demo ``name``: :data:`FIGURES_OF`, else ``<name>.png`` and every ``<name>-*.png``
+    (``_`` as ``-``) with its file name as caption. ValueError naming a listed picture that does not exist."""
     if name not in FIGURES_OF:
-        return [(path.name, path.stem) for path in sorted(figures.glob(name.replace("_", "-") + "-*.png"))]
+        stem = name.replace("_", "-")
+        paths = sorted(figures.glob(stem + ".png")) + sorted(figures.glob(stem + "-*.png"))
+        return [(path.name, path.stem) for path in paths]
     missing = [file for file, _ in FIGURES_OF[name] if not (figures / file).is_file()]
     if missing:
         raise ValueError(f"gallery page of demos/{name}.py: no {', '.join(missing)} in docs/figures "

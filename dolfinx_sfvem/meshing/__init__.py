@@ -11,11 +11,16 @@ gmsh_io
     gmsh session, ``.msh`` input, ``.geo``/``.msh`` output.
 gmsh_duals
     gmsh Frontal-Delaunay triangle meshes and their duals (Voronoi-like polygons).
+gmsh3d
+    3D: the tetrahedra or hexahedra of a gmsh model as a ``CellMesh``; gmsh tetrahedra of a geometry.
+hexahedra
+    3D without gmsh: tensor-product box grids, quadrilaterals extruded into hexahedra, hexahedra
+    split into tetrahedra.
 npz
     The ``.npz`` format of polygon meshes.
 diagnostics
     T-junctions and a summary of a mesh.
 
-The paper's geometries made with these tools are in :mod:`dolfinx_sfvem.benchmarks`; users reach
-both through the namespace :mod:`dolfinx_sfvem.meshes`.
+The paper's geometries made with these tools are in :mod:`dolfinx_sfvem.benchmarks` and
+:mod:`dolfinx_sfvem.benchmarks3d`; users reach both through the namespace :mod:`dolfinx_sfvem.meshes`.
 """

@@ -58,30 +58,31 @@ def _gmsh_initialized(gmsh) -> bool:
         return False
 
 
-def _surface_regions(gmsh, region_tags: Mapping[str, int] | None) -> dict[int, int]:
-    """Region tag of every 2D entity to read from the current gmsh model.
+def entity_regions(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) -> dict[int, int]:
+    """Region tag of every ``dim``-dimensional entity to read from the current gmsh model.
 
-    With ``region_tags`` (physical-group name -> tag), the surfaces of those groups; without,
-    the surfaces of all 2D physical groups tagged by the group's number, or every surface
-    with tag 0 when the model has no 2D physical group.
+    With ``region_tags`` (physical-group name -> tag), the entities of those groups; without,
+    the entities of all ``dim``-dimensional physical groups tagged by the group's number, or every
+    entity with tag 0 when the model has no such physical group.
     """
-    groups = [tag for _, tag in gmsh.model.getPhysicalGroups(2)]
+    groups = [tag for _, tag in gmsh.model.getPhysicalGroups(dim)]
     if region_tags is None:
         if not groups:
-            return {entity: 0 for _, entity in gmsh.model.getEntities(2)}
+            return {entity: 0 for _, entity in gmsh.model.getEntities(dim)}
         selected = {group: group for group in groups}
     else:
-        names = {gmsh.model.getPhysicalName(2, group): group for group in groups}
+        names = {gmsh.model.getPhysicalName(dim, group): group for group in groups}
         missing = sorted(set(region_tags) - set(names))
         if missing:
-            raise ValueError(f"2D physical group(s) {missing} not found in the gmsh model; it has "
-                             f"{sorted(names) if names else 'no 2D physical groups'}")
+            raise ValueError(f"{dim}D physical group(s) {missing} not found in the gmsh model; it has "
+                             f"{sorted(names) if names else f'no {dim}D physical groups'}")
         selected = {names[name]: tag for name, tag in region_tags.items()}
     regions: dict[int, int] = {}
     for group, tag in selected.items():
-        for entity in gmsh.model.getEntitiesForPhysicalGroup(2, group):
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(dim, group):
             if regions.setdefault(int(entity), tag) != tag:
-                raise ValueError(f"surface {entity} belongs to two physical groups with different tags")
+                raise ValueError(f"{'surface' if dim == 2 else 'volume'} {entity} belongs to two physical groups "
+                                 "with different tags")
     return regions
 
 
@@ -97,7 +98,7 @@ def model_cells(gmsh, region_tags: Mapping[str, int] | None
     offsets : (m + 1,) int64 and flat : (offsets[-1],) int64
         Cell i has the points ``flat[offsets[i]:offsets[i+1]]`` (gmsh's node order).
     tags : (m,) int32
-        Region tag of every cell (see :func:`_surface_regions`).
+        Region tag of every cell (see :func:`entity_regions`).
     """
     node_tags, coords, _ = gmsh.model.mesh.getNodes()
     xyz = coords.reshape(-1, 3)
@@ -105,7 +106,7 @@ def model_cells(gmsh, region_tags: Mapping[str, int] | None
         raise ValueError("the gmsh mesh is not in the plane z = 0")
     node_order = np.argsort(node_tags)
     blocks, tags = [], []
-    for entity, tag in _surface_regions(gmsh, region_tags).items():
+    for entity, tag in entity_regions(gmsh, region_tags).items():
         for etype, enodes in zip(*gmsh.model.mesh.getElements(2, entity)[::2]):
             _, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
             cells = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
@@ -155,13 +156,13 @@ def from_gmsh(source: str | os.PathLike | None = None,
     return mesh
 
 
-def region_names(gmsh, region_tags: Mapping[str, int] | None) -> dict[str, int]:
-    """Region tag by name of the current gmsh model's 2D physical groups (``region_tags`` itself
-    when given; unnamed groups are left out)."""
+def region_names(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) -> dict[str, int]:
+    """Region tag by name of the current gmsh model's ``dim``-dimensional physical groups
+    (``region_tags`` itself when given; unnamed groups are left out)."""
     if region_tags is not None:
         return dict(region_tags)
-    return {name: int(group) for _, group in gmsh.model.getPhysicalGroups(2)
-            if (name := gmsh.model.getPhysicalName(2, group))}
+    return {name: int(group) for _, group in gmsh.model.getPhysicalGroups(dim)
+            if (name := gmsh.model.getPhysicalName(dim, group))}
 
 
 def write_gmsh(gmsh, stem: str | os.PathLike) -> None:

@@ -1,0 +1,144 @@
+"""3D cell meshes from gmsh: the volume cells of a gmsh model (tetrahedra or hexahedra) as a
+:class:`~dolfinx_sfvem.cell_mesh.CellMesh`, from a ``.msh`` file, the caller's open model, or a
+geometry builder meshed in a gmsh session of our own.
+
+Parallel use: gmsh meshes identically on every rank (one thread, the same input), as the 2D
+generators do; the caller needs no rank logic. Only the cells' corner nodes are read: the cells
+are straight-sided (flat faces), their vertices on the geometry (gmsh places boundary nodes on the
+curved surfaces).
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..cell_mesh import CellMesh
+from .gmsh_io import entity_regions, gmsh_session, region_names
+from .hexahedra import right_handed
+
+#: gmsh geometry builder of a 3D model: ``build(gmsh)`` creates the geometry in a fresh gmsh model
+#: (synchronised), sets the mesh size (options or fields) and returns {region tag: volume tags}
+VolumeBuilder = Callable[[object], Mapping[int, Sequence[int]]]
+
+#: gmsh's corner order of a hexahedron -> DOLFINx's tensor-product order
+GMSH_TO_DOLFINX_HEXAHEDRON = np.array([0, 1, 3, 2, 4, 5, 7, 6])
+
+#: relative size (times the mesh's extent) of the coordinates :func:`gmsh_tetrahedra` rounds to zero
+ROUND_OFF = 1e-12
+
+_CELL_TYPES = {4: "tetrahedron", 8: "hexahedron"}
+
+
+def model_volume_cells(gmsh, region_tags: Mapping[str, int] | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """The 3D cells of the current gmsh model, one cell type.
+
+    Returns
+    -------
+    points : (n, 3) float64
+        Corner nodes used by the cells (higher-order nodes dropped).
+    cells : (m, 4) or (m, 8) int64
+        Tetrahedra right-handed, or hexahedra in DOLFINx's vertex order.
+    tags : (m,) int64
+        Region tag of every cell (:func:`~dolfinx_sfvem.meshing.gmsh_io.entity_regions` of dim 3).
+    cell_type : "tetrahedron" or "hexahedron"
+
+    Raises
+    ------
+    ValueError
+        If the selected volumes have no cells, or cells of another type (prisms, pyramids) or of
+        two types.
+    """
+    node_tags, coords, _ = gmsh.model.mesh.getNodes()
+    xyz = coords.reshape(-1, 3)
+    node_order = np.argsort(node_tags)
+    blocks, tags = [], []
+    for entity, tag in entity_regions(gmsh, region_tags, dim=3).items():
+        for etype, enodes in zip(*gmsh.model.mesh.getElements(3, entity)[::2]):
+            name, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
+            if n_corners not in _CELL_TYPES:
+                raise ValueError(f"gmsh volume {entity} has {name} cells; only tetrahedra or hexahedra are read")
+            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
+            blocks.append(node_order[np.searchsorted(node_tags, cells, sorter=node_order)])
+            tags.append(np.full(len(cells), tag, dtype=np.int64))
+    if not blocks:
+        raise ValueError("the gmsh model has no 3D elements in the selected volumes")
+    if len({block.shape[1] for block in blocks}) > 1:
+        raise ValueError("the gmsh model mixes tetrahedra and hexahedra; a CellMesh has one cell type")
+    cells = np.concatenate(blocks)
+    used, renumbered = np.unique(cells, return_inverse=True)
+    points, cells = xyz[used], renumbered.reshape(cells.shape).astype(np.int64)
+    cell_type = _CELL_TYPES[cells.shape[1]]
+    cells = right_handed(points, cells) if cell_type == "tetrahedron" else cells[:, GMSH_TO_DOLFINX_HEXAHEDRON]
+    return points, cells, np.concatenate(tags), cell_type
+
+
+def from_gmsh_3d(source: str | os.PathLike | None = None,
+                 region_tags: Mapping[str, int] | None = None) -> CellMesh:
+    """CellMesh of the 3D cells (tetrahedra or hexahedra) of a gmsh mesh.
+
+    Parameters
+    ----------
+    source : path or None
+        A ``.msh`` file (read in a gmsh session of its own), or ``None`` for the current model of
+        the caller's open gmsh session (left open).
+    region_tags : mapping of physical-group name -> region tag, optional
+        Read the volumes of these 3D physical groups with these tags (a missing group is a
+        ValueError naming it). Default: every 3D physical group tagged by its number, or all
+        volumes with tag 0 if the model has none. ``region_names`` of the result: these, or the
+        named 3D physical groups.
+    """
+    if source is None:
+        import gmsh
+
+        return _read_model(gmsh, region_tags)
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(path)
+    with gmsh_session() as gmsh:
+        gmsh.merge(path)
+        return _read_model(gmsh, region_tags)
+
+
+def _read_model(gmsh, region_tags: Mapping[str, int] | None) -> CellMesh:
+    points, cells, tags, cell_type = model_volume_cells(gmsh, region_tags)
+    return CellMesh(points, cells, tags, cell_type, region_names(gmsh, region_tags, dim=3))
+
+
+def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
+                    keep_gmsh: str | os.PathLike | None = None) -> CellMesh:
+    """Tetrahedra of the geometry ``build`` makes (:data:`VolumeBuilder`), meshed by gmsh's 3D
+    Delaunay in one thread (the same mesh on every rank and every run). Coordinates within
+    :data:`ROUND_OFF` x the mesh size of zero are set to zero (gmsh leaves ~1e-16 on the planes
+    x = 0, y = 0, z = 0, where symmetry conditions go).
+
+    ``names`` (region name -> tag) becomes the mesh's ``region_names``. With ``keep_gmsh`` the
+    mesh is also written to ``<keep_gmsh>.msh``.
+    """
+    with gmsh_session() as gmsh:
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+        for tag, volumes in build(gmsh).items():
+            gmsh.model.addPhysicalGroup(3, list(volumes), tag)
+        gmsh.model.mesh.generate(3)
+        if keep_gmsh is not None:
+            gmsh.write(os.fspath(keep_gmsh) + ".msh")
+        points, cells, tags, cell_type = model_volume_cells(gmsh, None)
+    points[np.abs(points) <= ROUND_OFF * np.ptp(points, axis=0).max()] = 0.0
+    return CellMesh(points, cells, tags, cell_type, dict(names))
+
+
+def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radius: float, width: float) -> None:
+    """Background mesh size ``h_near`` within ``radius`` of ``centre``, growing linearly to ``h_far``
+    over a shell of ``width`` beyond (a gmsh MathEval field; sizes from points, curvature and the
+    boundary switched off)."""
+    x0, y0, z0 = centre
+    distance = f"Sqrt((x - {x0!r})^2 + (y - {y0!r})^2 + (z - {z0!r})^2)"
+    field = gmsh.model.mesh.field.add("MathEval")
+    gmsh.model.mesh.field.setString(
+        field, "F", f"{h_near!r} + {h_far - h_near!r} * Min(1, Max(0, ({distance} - {radius!r}) / {width!r}))")
+    gmsh.model.mesh.field.setAsBackgroundMesh(field)
+    for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(option, 0)

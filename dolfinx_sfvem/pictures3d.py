@@ -1,0 +1,245 @@
+"""Pictures of a 3D state that a person reads without ParaView: PNGs rendered offscreen.
+
+Three views of a deformed :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (docs/guide/outputs.md):
+
+- ``<prefix>-deformed.png``: the solids, deformed, coloured by the displacement magnitude, the
+  medium hidden, the undeformed solids' outline as thin grey lines;
+- ``<prefix>-clip.png``: the mesh cut by a plane through the contact zone, the solids coloured by
+  region and the medium as a translucent wireframe, so the gap between the solids shows;
+- ``<prefix>-pressure.png``: the contact pressure on the solids' surface where it exceeds 1 % of
+  its largest value, seen from the side it pushes on, the rest of the solids translucent.
+
+Rendering is PyVista on VTK's wheels (pinned in pyproject.toml). Offscreen, without a display:
+VTK's EGL window on Mesa (Debian: libegl1, libegl-mesa0, libgl1-mesa-dri; installed by the
+Makefile), chosen here before VTK is loaded, so a user sets nothing. VTK is loaded with its own
+symbols first (``RTLD_DEEPBIND``): DOLFINx makes later libraries load into the global namespace
+(``RTLD_GLOBAL``), where the C++ standard library's regex templates of DOLFINx's libraries (built
+for the new string ABI) would replace those of the VTK wheel (old ABI) and abort the process at
+the first scalar bar.
+"""
+from __future__ import annotations
+
+import functools
+import os
+import pathlib
+import sys
+import typing
+
+import numpy as np
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+#: width and height of every picture (pixels)
+WINDOW_SIZE = (1200, 900)
+#: the contact zone drawn in colour: pressure above this fraction of the largest
+PRESSURE_THRESHOLD = 0.01
+#: the solid regions' colours in the cut (light, so the edges show)
+REGION_COLOURS = ("#8fc1a9", "#e0b97a", "#a9b8d9", "#d99a9a", "#c4c4c4")
+#: DOLFINx's vertex order -> VTK's (the hexahedron's faces cyclic)
+VTK_CELLS = {"tetrahedron": (10, [0, 1, 2, 3]), "hexahedron": (12, [0, 1, 3, 2, 4, 5, 7, 6])}
+
+
+@functools.cache
+def _pyvista():
+    """PyVista, its VTK modules loaded with their own symbols first (module docstring)."""
+    flags = sys.getdlopenflags()
+    sys.setdlopenflags(os.RTLD_NOW | os.RTLD_LOCAL | os.RTLD_DEEPBIND)
+    try:
+        import pyvista
+        import vtkmodules.all  # noqa: F401  (every VTK module now, not later under other flags)
+    finally:
+        sys.setdlopenflags(flags)
+    return pyvista
+
+
+def offscreen_unavailable() -> str | None:
+    """Why no picture can be rendered here (None when it can): PyVista/VTK missing, or no offscreen
+    OpenGL (the EGL libraries)."""
+    try:
+        pyvista = _pyvista()
+    except ImportError as error:
+        return f"PyVista is not installed ({error})"
+    try:
+        plotter = pyvista.Plotter(off_screen=True, window_size=(16, 16))
+        plotter.add_mesh(pyvista.Sphere())
+        plotter.screenshot(return_img=True)
+        plotter.close()
+    except Exception as error:      # VTK raises plain RuntimeErrors (or worse) without a GL context
+        return f"no offscreen OpenGL context ({type(error).__name__}: {error})"
+    return None
+
+
+def _grid(mesh, x: np.ndarray, cells: np.ndarray):
+    """A PyVista grid of ``cells`` (rows of ``mesh.cells``) at point positions ``x`` (n_points, 3), every
+    cell turned positive in VTK's convention (by its reference volume), so that the faces of the
+    surface point outwards."""
+    pyvista = _pyvista()
+    vtk_type, order = VTK_CELLS[mesh.cell_type]
+    p = np.asarray(mesh.points, dtype=float)[cells]
+    # the reference cell's volume sign: edges from vertex 0 to 1, 2 and (tetrahedra) 3 / (hexahedra) 4
+    edges = p[:, [1, 2, 3 if mesh.cell_type == "tetrahedron" else 4]] - p[:, [0]]
+    negative = np.linalg.det(edges) < 0.0
+    flip = [0, 2, 1, 3] if mesh.cell_type == "tetrahedron" else [0, 2, 1, 3, 4, 6, 5, 7]
+    cells = np.where(negative[:, None], cells[:, flip], cells)[:, order]
+    k = len(order)
+    conn = np.hstack([np.full((cells.shape[0], 1), k), cells]).astype(np.int64)
+    return pyvista.UnstructuredGrid(conn.ravel(), np.full(cells.shape[0], vtk_type, dtype=np.uint8), x)
+
+
+def _contact_view(mesh, x, surface, pressure):
+    """Where the contact is and its normal: the centre of the contact zone (the surface's vertices with
+    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal
+    (None, None without a pressure)."""
+    if surface is None or pressure is None or not np.any(pressure > 0.0):
+        return None, None
+    keys = surface.node_keys
+    vertex = keys < mesh.points.shape[0]
+    p = np.where(vertex, pressure, 0.0)
+    zone = p > PRESSURE_THRESHOLD * p.max()
+    normal = surface.node_normal[zone].sum(axis=0)
+    return x[keys[zone]].mean(axis=0), normal / max(np.linalg.norm(normal), 1e-300)
+
+
+def _default_clip(mesh, x, solid, origin, normal, contact_normal):
+    """The clip plane: through the contact (else the solids' centre), normal to the axis most
+    perpendicular to the contact normal, of the smallest extent of the solids (the C-box: its
+    thickness direction), unless given."""
+    used = x[np.unique(mesh.cells[solid])]
+    if origin is None:
+        origin = 0.5 * (used.min(axis=0) + used.max(axis=0))
+    if normal is None:
+        extent = used.max(axis=0) - used.min(axis=0)
+        score = extent.copy()
+        if contact_normal is not None:
+            score = np.where(np.abs(contact_normal) < 0.5, score, np.inf)
+        normal = np.eye(3)[int(np.argmin(score))]
+    return np.asarray(origin, dtype=float), np.asarray(normal, dtype=float)
+
+
+def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displacement: np.ndarray,
+                      solid_tags: typing.Collection[int], surface=None, pressure: np.ndarray | None = None,
+                      clip_origin: typing.Sequence[float] | None = None,
+                      clip_normal: typing.Sequence[float] | None = None) -> list[pathlib.Path]:
+    """Render the pictures of one 3D state (module docstring) into ``out_dir``; not collective (call it
+    on one rank, with the gathered mesh and displacement).
+
+    Parameters
+    ----------
+    out_dir, prefix
+        The PNGs are ``out_dir/<prefix>-deformed.png``, ``-clip.png`` and ``-pressure.png``.
+    mesh
+        A :class:`~dolfinx_sfvem.cell_mesh.CellMesh` of tetrahedra or hexahedra (``points``,
+        ``cells``, ``tags``, ``cell_type`` are read).
+    point_displacement : (n_points, 3)
+        The displacement at the mesh's points (the vertices; the pictures draw straight edges).
+    solid_tags
+        Region tags of the solids; the others are third medium.
+    surface, pressure
+        The state's :class:`~dolfinx_sfvem.solid_surface.SolidSurface` and the contact pressure
+        (n_nodes,) in its :attr:`node_keys` order (``ContactPressure.pressure``); without them no
+        pressure picture.
+    clip_origin, clip_normal
+        The clip plane (default: through the centre of the contact zone, else the solids' centre;
+        normal to the coordinate axis of smallest solid extent among those across the contact normal).
+
+    Returns
+    -------
+    The paths of the pictures written.
+    """
+    pyvista = _pyvista()
+    out = pathlib.Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    points = np.asarray(mesh.points, dtype=float)
+    x = points + np.asarray(point_displacement, dtype=float)
+    cells, tags = np.asarray(mesh.cells), np.asarray(mesh.tags)
+    solid = np.isin(tags, list(solid_tags))
+    solids, medium = _grid(mesh, x, cells[solid]), _grid(mesh, x, cells[~solid])
+    solids.cell_data["region"] = tags[solid]
+    solids.point_data["|u|"] = np.linalg.norm(point_displacement, axis=1)
+    contact_point, contact_normal = _contact_view(mesh, x, surface, pressure)
+    origin, normal = _default_clip(mesh, x, solid, clip_origin if clip_origin is not None else contact_point,
+                                   clip_normal, contact_normal)
+    paths = []
+
+    def save(plotter, name: str) -> None:
+        path = out / f"{prefix}-{name}.png"
+        plotter.screenshot(str(path))
+        plotter.close()
+        paths.append(path)
+
+    bar = dict(title_font_size=22, label_font_size=18, n_labels=5, fmt="%.3g", vertical=True,
+               position_x=0.86, position_y=0.2, height=0.6)
+    # the deformed solids
+    plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
+    plotter.add_mesh(solids, scalars="|u|", cmap="viridis", show_edges=True, edge_color="#404040",
+                     line_width=0.5, scalar_bar_args={**bar, "title": "displacement"})
+    plotter.add_mesh(_grid(mesh, points, cells[solid]).extract_feature_edges(45.0), color="#909090", line_width=1)
+    plotter.add_title(f"{prefix}: deformed solids (medium hidden)", font_size=14)
+    plotter.view_isometric()
+    plotter.enable_parallel_projection()
+    plotter.add_axes()
+    save(plotter, "deformed")
+    # the clip through the contact zone
+    plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
+    clipped = solids.clip(normal=normal, origin=origin, crinkle=False)
+    for k, tag in enumerate(sorted(set(int(t) for t in tags[solid]))):
+        part = clipped.threshold((tag - 0.5, tag + 0.5), scalars="region") if clipped.n_cells else clipped
+        if part.n_cells:
+            plotter.add_mesh(part, color=REGION_COLOURS[k % len(REGION_COLOURS)], show_edges=True,
+                             edge_color="#404040", line_width=0.5, label=f"solid, region {tag}")
+    if medium.n_cells:
+        plotter.add_mesh(medium.clip(normal=normal, origin=origin, crinkle=False), style="wireframe",
+                         color="#3060b0", opacity=0.5, line_width=1, label="third medium")
+    plotter.add_legend(bcolor="white", face="rectangle", size=(0.24, 0.12), loc="lower left")
+    plotter.add_title(f"{prefix}: cut through the contact, normal {_vector(normal)}", font_size=14)
+    plotter.camera_position = [tuple(origin + 4.0 * normal * _size(x)), tuple(origin), _up(normal)]
+    plotter.reset_camera()
+    plotter.enable_parallel_projection()
+    plotter.add_axes()
+    save(plotter, "clip")
+    if contact_point is None:
+        return paths
+    # the contact pressure, seen along the contact normal onto the surface that carries it, the rest
+    # of the solids faint in front of it
+    values = np.full(points.shape[0], np.nan)
+    vertex = surface.node_keys < points.shape[0]
+    values[surface.node_keys[vertex]] = pressure[vertex]
+    solids.point_data["pressure"] = values
+    skin = solids.extract_surface(algorithm="dataset_surface")
+    p_max = float(np.nanmax(values))
+    loaded = skin.threshold(PRESSURE_THRESHOLD * p_max, scalars="pressure", all_scalars=True)
+    plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
+    plotter.add_mesh(skin, color="#b0b0b0", opacity=0.12)
+    plotter.add_mesh(loaded.extract_surface(algorithm="dataset_surface"), scalars="pressure", cmap="inferno",
+                     clim=(0.0, p_max), culling="back", show_edges=True, edge_color="#505050", line_width=0.5,
+                     scalar_bar_args={**bar, "title": "contact pressure"})
+    plotter.add_title(f"{prefix}: contact pressure, on the surface facing {_vector(contact_normal)}",
+                      font_size=14)
+    # from the side the pressure pushes on, turned a little across the clip plane's normal and along it
+    across = np.cross(contact_normal, normal)
+    view = contact_normal + 0.35 * normal + 0.25 * across / max(np.linalg.norm(across), 1e-300)
+    plotter.camera_position = [tuple(contact_point + 4.0 * view * _size(x)), tuple(contact_point), _up(view)]
+    low, high = np.reshape(loaded.bounds, (3, 2)).T
+    pad = 0.8 * (high - low).max()
+    plotter.reset_camera(bounds=np.column_stack([low - pad, high + pad]).ravel())
+    plotter.enable_parallel_projection()
+    plotter.add_axes()
+    save(plotter, "pressure")
+    return paths
+
+
+def _vector(v: np.ndarray) -> str:
+    """A direction for a title: an axis ("+z") when within 18° of one, else its components."""
+    k = int(np.argmax(np.abs(v)))
+    if abs(v[k]) > 0.95 * np.linalg.norm(v):
+        return ("+" if v[k] > 0 else "-") + "xyz"[k]
+    return "(" + ", ".join(f"{c:.2f}" for c in v) + ")"
+
+
+def _size(x: np.ndarray) -> float:
+    return float(np.linalg.norm(x.max(axis=0) - x.min(axis=0)))
+
+
+def _up(direction: np.ndarray) -> tuple[float, float, float]:
+    """A view-up vector across the viewing ``direction``: z, unless looking along z (then y)."""
+    return (0.0, 1.0, 0.0) if abs(direction[2]) > 0.9 else (0.0, 0.0, 1.0)
