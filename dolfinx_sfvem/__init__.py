@@ -7,6 +7,8 @@ Main entry points
 -----------------
 PolygonMesh
     Polygonal mesh with region tags (validation, hanging nodes, sub-triangulation).
+CellMesh
+    Mesh of one DOLFINx cell type with region tags: tetrahedra or hexahedra for 3D problems.
 Hyperelastic, ThirdMedium, UserEnergy
     Region energies (paper Eqs. 2-17).
 Adaptivity, Compression, NearContact
@@ -30,6 +32,7 @@ from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it l
 from . import meshes
 from .adaptivity import Adaptivity, Compression, NearContact
 from .arclength import ArcLength
+from .cell_mesh import CellMesh
 from .elasticity import linear_elastic_stiffness
 from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
 from .discretization import Discretization
@@ -43,7 +46,7 @@ from .vem import SFVEMDiscretization
 
 __version__ = "0.1.0"
 
-__all__ = ["PolygonMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
+__all__ = ["PolygonMesh", "CellMesh", "Energy", "Hyperelastic", "ThirdMedium", "UserEnergy", "ContactProblem",
            "Discretization", "VEMSpace", "SFVEMDiscretization", "LagrangeDiscretization", "linear_elastic_stiffness",
            "meshes", "SolveFailed", "Adaptivity", "Compression", "NearContact", "LoadStepping",
            "ArcLength"]

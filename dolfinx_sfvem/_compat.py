@@ -502,3 +502,11 @@ def locate_cells(mesh: dolfinx.mesh.Mesh, points: npt.NDArray[np.float64], n_cel
     out = np.full(len(points), -1, dtype=np.int32)
     out[found] = np.asarray(colliding.array)[offsets[:-1][found]]
     return out
+
+
+def entity_geometry_nodes(mesh: dolfinx.mesh.Mesh, dim: int, entities: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+    """Geometry node indices (n, k) of the local entities of dimension ``dim``."""
+    entities = np.ascontiguousarray(entities, dtype=np.int32)
+    if hasattr(dolfinx.mesh, "entities_to_geometry"):         # DOLFINx 0.11
+        return np.asarray(dolfinx.mesh.entities_to_geometry(mesh, dim, entities, False))
+    return np.asarray(dolfinx.cpp.mesh.entities_to_geometry(getattr(mesh, "_mesh", mesh), dim, entities, False))

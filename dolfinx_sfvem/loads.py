@@ -234,7 +234,7 @@ class _BoundCavityPressure(BoundLoad):
 
 def _largest_entry(load: BoundLoad, u: np.ndarray | None) -> float:
     """Largest entry of the load's nodal forces at λ = 1 over all ranks (collective)."""
-    f = np.zeros((load.disc.n_local_nodes, 2))
+    f = np.zeros((load.disc.n_local_nodes, load.disc.gdim))
     load.add_force(u, f)
     return load.comm.allreduce(float(np.abs(f).max(initial=0.0)), op=MPI.MAX)
 
@@ -320,11 +320,16 @@ class BodyForce(Load):
 
 @dataclass(frozen=True)
 class Traction(Load):
-    """Dead traction ``t`` (2,) per unit reference length on the boundary edges of ``where``."""
+    """Dead traction ``t`` (d,) per unit reference length (area in 3D) on the boundary edges
+    (faces) of ``where``."""
     where: Where
-    t: tuple[float, float]
+    t: tuple[float, ...]
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.BoundFaceTraction(self.name, disc, face_loads.loaded_facets(disc, self.where, self.name),
+                                                np.asarray(self.t, dtype=np.float64))
         return _BoundTraction(self.name, disc, boundary_edges(disc, self.where, self.name),
                               np.asarray(self.t, dtype=np.float64))
 
@@ -341,6 +346,10 @@ class Pressure(Load):
     follower: bool = True
 
     def bind(self, disc: Discretization, materials: typing.Mapping[int, typing.Any]) -> BoundLoad:
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.BoundFacePressure(self.name, disc, face_loads.loaded_facets(disc, self.where, self.name),
+                                                float(self.p), self.follower)
         edges = boundary_edges(disc, self.where, self.name)
         return _BoundPressure(self.name, disc, edges, float(self.p), self.follower, chain_ends(disc, edges))
 
@@ -384,6 +393,9 @@ class CavityPressure(Load):
         if energy is None or not energy.is_medium:
             raise ValueError(f"cavity pressure {self.name!r}: region {self.tag} is not a third-medium region "
                              "(fill the cavity with a ThirdMedium and give its tag)")
+        if disc.gdim == 3:
+            from . import face_loads
+            return face_loads.bind_cavity_pressure(self.name, disc, self.tag, self.p, energy.uses_gradient)
         open_edges = np.empty((0, 3), dtype=np.int64)
         if open_boundary_edge(disc.output_mesh, self.tag) is not None:     # same answer on every rank
             open_edges = boundary_edges(disc, (self.tag,), self.name)

@@ -349,7 +349,8 @@ class ContactProblem:
         """Dead traction ``t`` = (t_x, t_y) per unit reference length, λ t at load factor λ, on the
         boundary edges of ``where``: a marker function of the coordinates (2, n) -> (n,) bool
         (the edges whose vertices and midpoint it selects) or region tags/names (the boundary
-        edges of those regions). Paper Eq. 1, the t̄ term."""
+        edges of those regions). Paper Eq. 1, the t̄ term. In 3D ``t`` = (t_x, t_y, t_z) per unit
+        reference area on the boundary faces (:mod:`~dolfinx_sfvem.face_loads`)."""
         t = self._finite_vector(t, name, "t")
         return self._add_load(Traction(name, self._where(where, name), t))
 
