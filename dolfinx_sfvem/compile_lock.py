@@ -64,6 +64,14 @@ def compiling() -> typing.Iterator[None]:
         yield
 
 
+def compiled_form(form: "ufl.Form") -> "dolfinx.fem.Form":
+    """``dolfinx.fem.form(form)`` compiled in :func:`compiling` (quietly, under the cache
+    directory's lock): how every module of the package compiles a UFL form."""
+    import dolfinx.fem
+    with compiling():
+        return dolfinx.fem.form(form)
+
+
 #: FFCx's JIT entry points that DOLFINx calls (those the installed FFCx has)
 _ENTRY_POINTS = tuple(name for name in ("compile_forms", "compile_expressions", "compile_elements")
                       if hasattr(ffcx.codegeneration.jit, name))

@@ -34,18 +34,13 @@ import dolfinx.fem.petsc
 import dolfinx.mesh
 
 from . import _compat
+from .compile_lock import compiled_form
 from .discretization import Discretization
 from .energy import VolumeWork
 from .loads import BoundLoad, _BoundCavityPressure, _largest_entry
-from .logs import quiet_compilers
 
 #: the tag of the loaded facets in a load's facet tags
 LOADED = 1
-
-
-def _form(form: ufl.Form) -> dolfinx.fem.Form:
-    with quiet_compilers():
-        return dolfinx.fem.form(form)
 
 
 def cofactor(A: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
@@ -144,7 +139,7 @@ class FaceForms:
         return float(self.disc.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
 
     def compile(self, form: ufl.Form) -> dolfinx.fem.Form:
-        return _form(form)
+        return compiled_form(form)
 
     def swept_volume(self) -> ufl.Form:
         """The volume swept into the body by the faces along straight paths (module docstring)."""
@@ -162,9 +157,9 @@ class BoundFaceTraction(BoundLoad):
         self.forms = FaceForms(disc, facets)
         self.t_norm = float(np.linalg.norm(t))
         t = ufl.as_vector([float(c) for c in t])
-        self._force = _form(ufl.dot(t, self.forms.v) * self.forms.ds)
-        self._work = _form(ufl.dot(t, self.forms.u) * self.forms.ds)
-        area = self.forms.scalar(_form(self.forms.scale * self.forms.ds))
+        self._force = compiled_form(ufl.dot(t, self.forms.v) * self.forms.ds)
+        self._work = compiled_form(ufl.dot(t, self.forms.u) * self.forms.ds)
+        area = self.forms.scalar(compiled_form(self.forms.scale * self.forms.ds))
         self.magnitude = self.t_norm * area
         self.reference_norm = _largest_entry(self, None)
 
@@ -189,12 +184,12 @@ class BoundFacePressure(BoundLoad):
         forms = self.forms = FaceForms(disc, facets)
         if follower:
             force = -p * ufl.dot(cofactor(forms.F) * forms.N, forms.v) * forms.ds
-            self._stiffness = _form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.V)))
-            self._conjugate = _form(forms.swept_volume())
+            self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.V)))
+            self._conjugate = compiled_form(forms.swept_volume())
         else:
             force = -p * ufl.dot(forms.N, forms.v) * forms.ds
-            self._conjugate = _form(-ufl.dot(forms.u, forms.N) * forms.ds)
-        self._force = _form(force)
+            self._conjugate = compiled_form(-ufl.dot(forms.u, forms.N) * forms.ds)
+        self._force = compiled_form(force)
         self.reference_norm = _largest_entry(self, None)
 
     def symmetric_with(self, constrained: np.ndarray) -> bool:

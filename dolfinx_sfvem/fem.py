@@ -48,7 +48,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 
 from . import _compat
-from .compile_lock import compiling
+from .compile_lock import compiled_form
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
 from .energy import Energy
 from .injectivity import folded_elements, gather_count
@@ -70,13 +70,6 @@ ERROR_QUADRATURE_DEGREE = 8
 #: quadrilateral's dof 8 is its centre; a Q2 hexahedron's dofs 20..25 are its face centres, 26
 #: its centre)
 _EDGE_VERTICES = {cell: tuple(map(tuple, reference_edges(cell))) for cell in CELL_TYPES}
-
-
-def _form(form: ufl.Form) -> dolfinx.fem.Form:
-    """``dolfinx.fem.form`` compiled in :func:`~dolfinx_sfvem.compile_lock.compiling` (quietly, under
-    the cache directory's lock)."""
-    with compiling():
-        return dolfinx.fem.form(form)
 
 
 def _boundary_loop(cell: str) -> np.ndarray:
@@ -246,9 +239,9 @@ class LagrangeDiscretization(Discretization):
         if self.jump_penalty is not None:
             Pi = Pi + self._jump_energy(self.jump_penalty)
         residual = ufl.derivative(Pi, u, v)
-        self._energy_form = _form(Pi)
-        self._residual_form = _form(residual)
-        self._tangent_form = _form(ufl.derivative(residual, u, du))
+        self._energy_form = compiled_form(Pi)
+        self._residual_form = compiled_form(residual)
+        self._tangent_form = compiled_form(ufl.derivative(residual, u, du))
         points, _ = _compat.reference_quadrature(mesh, q)
         cell = _cell_type(mesh)
         self._n_quadrature_points = points.shape[0]
@@ -341,8 +334,8 @@ class LagrangeDiscretization(Discretization):
             unit = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0)) for name in term.params}
             F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(self.u))
             energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self.dx(term.tag)
-            self._term_forms[index] = (unit, _form(energy),
-                                       _form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
+            self._term_forms[index] = (unit, compiled_form(energy),
+                                       compiled_form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
         unit, energy_form, force_form = self._term_forms[index]
         for name, value in term.energy.validate(params if params is not None else term.params).items():
             unit[name].value = value
@@ -484,7 +477,7 @@ class LagrangeDiscretization(Discretization):
         if self._medium_ufl is None:
             return
         if self._medium_form is None:
-            self._medium_form = _form(self._medium_ufl)
+            self._medium_form = compiled_form(self._medium_ufl)
         self._set_state(x, regularization)
         dolfinx.fem.petsc.assemble_vector(b, self._medium_form)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -512,7 +505,7 @@ class LagrangeDiscretization(Discretization):
         b = self.create_vector()
         with b.localForm() as bl:
             bl.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, _form(ufl.inner(f_h, ufl.TestFunction(self.V)) * self.dx))
+        dolfinx.fem.petsc.assemble_vector(b, compiled_form(ufl.inner(f_h, ufl.TestFunction(self.V)) * self.dx))
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return b
 
