@@ -28,15 +28,21 @@ tangent; :class:`~dolfinx_sfvem.equilibrium.Equilibrium` says when the tangent i
 Default absolute tolerance: unless ``snes_atol`` is given (command line or Python), it
 follows the round-off level of the residual,
 
-    atol = ATOL_ROUNDOFF_FACTOR * eps * F_c,
+    atol = max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * r_0),
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + ||f||_inf,
+    r_0  = eps * ||K||_inf * h * sqrt(n),
 
 with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
 tangent of the start state of every solve), ``x`` the state, ``g`` the prescribed values,
-``f`` the external force at the load factor of the solve (body force and loads) and ``eps``
-machine epsilon; ``atol`` is updated at every tangent. It is proportional to the moduli, so
-moduli and loads scaled together give the same Newton iterations and solution. Why and what was
-measured: docs/method.md §6.
+``f`` the external force at the load factor of the solve (body force and loads), ``h`` the
+mesh's node spacing (:func:`node_spacing`), ``n`` the number of unknowns and ``eps`` machine
+epsilon; ``atol`` is updated at every tangent. ``F_c`` is the size of the element forces the
+residual is summed from. ``r_0`` is the residual's round-off floor near F = I, where the stress
+terms are O(modulus) each and cancel: their round-off, eps times a force ``||K||_inf h`` per
+row, does not shrink with the load (measured: Newton stagnates at 0.003 to 0.02 r_0, SFVEM and
+FEM, 2.5e3 to 3.3e4 unknowns; docs/notes/2026-11-26-tolerances-volume-first-step.md), so a tiny
+load converges on the defaults. Both are proportional to the moduli, so moduli and loads scaled
+together give the same Newton iterations and solution. Why and what was measured: docs/method.md §6.
 """
 from __future__ import annotations
 
@@ -48,7 +54,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
-from .discretization import AssemblyInfo
+from .discretization import AssemblyInfo, Discretization
 from .equilibrium import Equilibrium
 
 #: options prefix of a problem's solvers unless the user gives another
@@ -68,6 +74,8 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
 FALLBACK_LINE_SEARCH = "l2"
 #: the default ``snes_atol`` in units of the round-off level ``eps * F_c`` of the residual (module docstring)
 ATOL_ROUNDOFF_FACTOR = 1e4
+#: the default ``snes_atol`` is at least this many times the round-off floor r_0 of the residual (module docstring)
+FLOOR_FACTOR = 10.0
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
 
@@ -225,6 +233,24 @@ def negative_pivots(pc: PETSc.PC) -> int | None:
     return int(pc.getFactorMatrix().getMumpsInfog(12))
 
 
+def node_spacing(disc: Discretization) -> float:
+    """The mean spacing of the nodes of ``disc``, (|B| / n)^(1/d) with |B| the measure of the
+    bounding box of the nodes, n their number over all ranks and d the dimension of
+    :attr:`~Discretization.x_nodes` (a length in any dimension; collective).
+
+    It scales the round-off floor of the residual: near F = I the residual's stress terms are
+    O(modulus) each and cancel, and their round-off is eps times a force of that size,
+    ``||K||_inf h`` per row, however small the displacement (module docstring).
+    """
+    X = disc.x_nodes[:disc.n_owned_nodes]
+    dim = disc.x_nodes.shape[1]
+    low = disc.comm.allreduce(X.min(axis=0, initial=np.inf), op=MPI.MIN)
+    high = disc.comm.allreduce(X.max(axis=0, initial=-np.inf), op=MPI.MAX)
+    n = disc.comm.allreduce(disc.n_owned_nodes, op=MPI.SUM)
+    extent = (high - low)[high > low]
+    return float(np.prod(extent) / n) ** (1.0 / extent.size) if extent.size else 0.0
+
+
 class SNESNewton:
     """PETSc SNES (Newton with line search) for ``R(x; λ) = 0`` with constrained rows ``x_c = g_c``.
 
@@ -249,6 +275,9 @@ class SNESNewton:
         self.prefix = prefix
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
+        #: h sqrt(n) of the residual's round-off floor r_0 = eps ||K||_inf h sqrt(n) (module docstring)
+        self.floor_length = node_spacing(disc) * float(np.sqrt(disc.num_dofs_global))
+        self.roundoff = 0.0         # eps F_c at the last :meth:`absolute_tolerance`
         self.A = disc.create_matrix()
         self.b = disc.create_vector()
         #: internal minus external force at the state ``_force_state``, constraints not applied
@@ -348,15 +377,19 @@ class SNESNewton:
     def absolute_tolerance(self, x: PETSc.Vec, stiffness: float | None = None) -> float:
         """The default absolute tolerance at the state x (collective).
 
-        ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf)``
-        with ``||K||_inf`` of the free rows (``stiffness``; default: from the tangent at the
-        start state of the current solve, 0 before any), ``g`` of the current solve and ``f``
-        the external force at its load factor; see the module docstring.
+        ``max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * eps * ||K||_inf h sqrt(n))``,
+        ``F_c = ||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf``, with ``||K||_inf`` of the free
+        rows (``stiffness``; default: from the tangent at the start state of the current solve,
+        0 before any), ``g`` of the current solve, ``f`` the external force at its load factor
+        and ``h sqrt(n)`` :attr:`floor_length`; see the module docstring. Sets :attr:`roundoff`
+        to ``eps * F_c``.
         """
         stiffness = self._stiffness if stiffness is None else stiffness
         g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
         force = stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + self.equilibrium.external_force_norm()
-        return ATOL_ROUNDOFF_FACTOR * float(np.finfo(np.float64).eps) * force
+        eps = float(np.finfo(np.float64).eps)
+        self.roundoff = eps * force
+        return max(ATOL_ROUNDOFF_FACTOR * eps * force, FLOOR_FACTOR * eps * stiffness * self.floor_length)
 
     def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
         """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
@@ -425,8 +458,7 @@ class SNESNewton:
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
         atol = self.snes.getTolerances()[1]
-        failure = "" if ok else _failure(reason, info, self.history, atol,
-                                         atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
+        failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
                             self.negative_pivots())
