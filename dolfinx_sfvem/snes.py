@@ -415,6 +415,32 @@ class SNESNewton:
         retry.iterations += result.iterations
         return retry
 
+    def tangent_step(self, x: PETSc.Vec, g: np.ndarray, load: float) -> bool:
+        """x += the full Newton step at the load factor ``load`` with the constrained values ``g``
+        from x, without line search: from an equilibrium x at another load factor it is the
+        tangent (Euler) prediction x + Δλ dx/dλ. Returns False, x unchanged, where the tangent
+        at x is not finite or the step is not (collective)."""
+        self.g = np.asarray(g, dtype=np.float64)
+        if load != self.equilibrium.load:
+            self.equilibrium.set_load(load)
+            self.forget_force()
+        self.equilibrium.residual(x, self.b)
+        self.disc.constraints.set_residual_rows(x, self.b, self.g)
+        self.equilibrium.tangent(x, self.A)
+        self._start_state_current = False
+        if not np.isfinite(self.free_row_norm(self.A)):
+            return False
+        self.disc.constraints.eliminate(self.A, self.b)
+        step = x.duplicate()
+        self.ksp.setOperators(self.A)
+        self.ksp.solve(self.b, step)
+        finite = np.isfinite(step.norm())
+        if finite:
+            x.axpy(-1.0, step)
+            x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        step.destroy()
+        return finite
+
     def force_at(self, x: PETSc.Vec) -> AssemblyInfo:
         """Internal minus external force at ``x`` (ghosts current) and the current load factor
         into :attr:`force`, constraints not applied, with the state's diagnostics: the last

@@ -11,6 +11,7 @@ from __future__ import annotations
 import typing
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import ContactPressure, Gap
@@ -61,6 +62,18 @@ class StepSolver:
         """Newton's solve for the load factor ``load`` from :attr:`x` (constrained values
         ``load * final``), then :meth:`accept`."""
         return self.accept(self.newton.solve(self.x, load * self.final, load))
+
+    @property
+    def load_driven(self) -> bool:
+        """Whether λ scales loads only: some load is defined and every prescribed displacement is
+        zero (collective)."""
+        prescribed = bool(np.any(self.final != 0.0))
+        return self.equilibrium.has_loads and not self.newton.comm.allreduce(prescribed, op=MPI.LOR)
+
+    def predict_at(self, load: float) -> bool:
+        """:attr:`x` moved to the tangent prediction at ``load`` (one full Newton step from it,
+        :meth:`SNESNewton.tangent_step`); whether it was made (collective)."""
+        return self.newton.tangent_step(self.x, load * self.final, load)
 
     def accept(self, result: NewtonResult) -> NewtonResult:
         """A converged state whose solids overlap is rejected (``converged`` False, ``failure``

@@ -143,3 +143,13 @@ def test_demo_writes_its_comparison(tmp_path):
     L2, conjugate = float(table[5]), float(table[9])
     assert L2 < TOLERANCE["L2"]
     assert conjugate == pytest.approx(tc.radial_answer("dead", tc.P_REF, 0.0).conjugate, rel=TOLERANCE["conjugate_error"])
+
+
+@pytest.mark.parametrize("method", ["vem", "fem"])
+@pytest.mark.parametrize("load", ["follower", "cavity"])
+def test_first_step_is_as_cheap_as_the_others(method, load):
+    """p = 2/15 in four steps: the first step from the stress-free state (its tangent prediction,
+    then Newton) takes no more iterations than the later ones."""
+    _, run, _ = solved(load, tc.P_REF, method)
+    iterations = [s.newton_iterations for s in run.steps]
+    assert len(iterations) == 4 and iterations[0] <= max(iterations[1:]), iterations

@@ -81,12 +81,19 @@ def test_smallest_increment_failing_raises_after_the_attempt():
 class path_solver:
     """A stand-in for the step solver on the linear path x(λ) = λ (1, 2): Newton takes
     ``iterations(load, start)`` iterations from the state it starts at and reaches x(λ); it
-    records where every solve started and rejects the loads ``rejected(load)`` says."""
+    records where every solve started and rejects the loads ``rejected(load)`` says; with
+    ``load_driven`` its tangent prediction is the path's point (the path is linear)."""
 
-    def __init__(self, iterations, rejected=lambda load: False, admissible=lambda load, start: True):
+    def __init__(self, iterations, rejected=lambda load: False, admissible=lambda load, start: True,
+                 load_driven=False):
         self.x = state()
         self.iterations, self.rejected, self.admissible = iterations, rejected, admissible
+        self.load_driven = load_driven
         self.starts = []
+
+    def predict_at(self, load: float) -> bool:
+        self.x.setValues([0, 1], [load, 2 * load])
+        return True
 
     def solve_at(self, load: float) -> NewtonResult:
         start = self.x.array.copy()
@@ -119,11 +126,17 @@ def test_hard_steps_shrink_the_increment_but_not_below_the_minimum():
 
 def test_the_predictor_starts_from_the_secant_extrapolation():
     """On the linear path the secant prediction is the solution: from the third step on every
-    solve starts at its own target; without the predictor every solve starts at the last state."""
+    solve starts at its own target; a path driven by loads alone starts its first step from the
+    tangent prediction (here the solution too), one with prescribed displacements from the
+    reference state; without the predictor every solve starts at the last state."""
     solver = path_solver(lambda load, start: 3)
     loads = [a.load for a in LoadStepping(8).attempts(solver)]
     for load, start in solver.starts[2:]:
         np.testing.assert_allclose(start, [load, 2 * load], rtol=1e-12)
+    assert np.all(solver.starts[0][1] == 0.0)
+    driven = path_solver(lambda load, start: 3, load_driven=True)
+    list(LoadStepping(8).attempts(driven))
+    np.testing.assert_allclose(driven.starts[0][1], [1 / 8, 2 / 8], rtol=1e-12)
     plain = path_solver(lambda load, start: 3)
     loads = [a.load for a in LoadStepping(8, predictor=False).attempts(plain)]
     for (load, start), before in zip(plain.starts[1:], loads):
