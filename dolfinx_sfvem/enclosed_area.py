@@ -77,7 +77,8 @@ def area_force_loop(polygons, dof_off, dofs, X, u, scale, R):
 
 @numba.njit(cache=True)
 def _add_cross_hessian(block, i, j, s):
-    """block += s ∂²(x_i × x_j)/∂x_i∂x_j and its transpose (nodes i ≠ j of a node-major (nd, 2, nd, 2) block)."""
+    """block += s ∂²(x_i × x_j)/∂x_i∂x_j and its transpose (nodes i ≠ j of a node-major
+    (nd, 2, nd, 2) block)."""
     block[i, 0, j, 1] += s
     block[i, 1, j, 0] -= s
     block[j, 1, i, 0] += s

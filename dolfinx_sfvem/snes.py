@@ -76,6 +76,11 @@ FALLBACK_LINE_SEARCH = "l2"
 ATOL_ROUNDOFF_FACTOR = 1e4
 #: the default ``snes_atol`` is at least this many times the round-off floor r_0 of the residual (module docstring)
 FLOOR_FACTOR = 10.0
+#: with the energy merit, Newton takes full steps once the residual is below this fraction of its
+#: initial value (the potential's decrease then nears its round-off; :meth:`SNESNewton.solve`)
+MERIT_SWITCH = 1e-2
+#: the most halvings of a Newton step in search of a lower potential
+MERIT_HALVINGS = 20
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
 
@@ -296,7 +301,9 @@ class SNESNewton:
         snes.setOptionsPrefix(prefix)
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
-        snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
+        self._merit_asked = False   # the current solve asked for the energy merit (:meth:`solve`)
+        self._merit = False         # its steps are judged by the potential now
+        snes.setMonitor(self._monitor)
         self.options = dict(options or {})
         if not equilibrium.symmetric:
             self.options.setdefault("pc_type", "lu")
@@ -341,11 +348,12 @@ class SNESNewton:
         """Line-search pre-check: SNES's residual F at x back in place of the lifted right-hand
         side of the linear solve, so that the line search works with the residual whose norm SNES
         tests (its slope F·(A y) is then exact up to F_f·K_fc δ_c, zero when F_f or δ_c is); the
-        step y is left unchanged. Nothing to do after a lagged Jacobian (F was not lifted)."""
+        step y is left unchanged but in the energy merit's phase (:meth:`_descend`). Nothing to undo
+        after a lagged Jacobian (F was not lifted)."""
         if self._lifted:
             self._unlifted.copy(self.b)
             self._lifted = False
-        return False
+        return self._descend(x, y) if self._merit else False
 
     def _start(self, x: PETSc.Vec) -> None:
         """The tangent at the start state ``x`` of a solve into :attr:`A`, constraints not applied:
@@ -391,12 +399,65 @@ class SNESNewton:
         self.roundoff = eps * force
         return max(ATOL_ROUNDOFF_FACTOR * eps * force, FLOOR_FACTOR * eps * stiffness * self.floor_length)
 
-    def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
+    def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0, energy_merit: bool = False) -> NewtonResult:
         """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
         constrained unknowns (``disc.constraints.owned``) at the load factor ``load``; a failed
         solve with the default line search is repeated from the same start with
         :data:`FALLBACK_LINE_SEARCH` (its iterations are counted in the result's, its residual
-        norms and failure are the result's)."""
+        norms and failure are the result's).
+
+        ``energy_merit``: while the residual is above :data:`MERIT_SWITCH` of its initial value,
+        a Newton step is shortened (halved) until it lowers the total potential
+        (:meth:`Equilibrium.potential`) and then taken as it is (line search ``basic``); closer to
+        the solution full Newton steps. Only where the balance has a potential
+        (:attr:`Equilibrium.conservative`), the constrained unknowns are at ``g`` already (the
+        potential is then minimal at the solution) and the line search is the default one. From
+        a stress-free state the residual's norm rises along Newton's step (its linearized
+        rotations stretch stiff material) while the potential falls, and the norm-based line
+        search creeps at a few percent of every step
+        (docs/notes/2026-11-26-tolerances-volume-first-step.md)."""
+        with x.localForm() as xl:
+            moved = bool(np.any(xl.array_r[self.disc.constraints.owned] != np.asarray(g)))
+        moved = self.comm.allreduce(moved, op=MPI.LOR)
+        self._merit_asked = energy_merit and self.fallback and self.equilibrium.conservative and not moved
+        if not self._merit_asked:
+            return self._solve_with_fallback(x, g, load)
+        self._set_line_search("basic")
+        try:
+            return self._solve_with_fallback(x, g, load)
+        finally:
+            self._merit_asked = self._merit = False
+            self._set_line_search(DEFAULT_PETSC_OPTIONS["snes_linesearch_type"])
+
+    def _monitor(self, snes: PETSc.SNES, iteration: int, norm: float) -> None:
+        """Records the residual norms; ends the energy merit's phase (:meth:`solve`) once the
+        residual fell below :data:`MERIT_SWITCH` of its initial value: near the solution the
+        potential's decrease along a step, about |R|²/K, nears its round-off."""
+        self.history.append(float(norm))
+        if self._merit and norm < MERIT_SWITCH * self.history[0]:
+            self._merit = False
+
+    def _descend(self, x: PETSc.Vec, y: PETSc.Vec) -> bool:
+        """The Newton step x - y halved until it lowers the total potential (at most
+        :data:`MERIT_HALVINGS` times; y scaled in place); whether y changed (collective)."""
+        trial = x.duplicate()
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        start = self.equilibrium.potential(x)
+        scale = 1.0
+        for _ in range(MERIT_HALVINGS):
+            x.copy(trial)
+            trial.axpy(-scale, y)
+            trial.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            if self.equilibrium.potential(trial) <= start:
+                break
+            scale /= 2
+        trial.destroy()
+        if scale < 1.0:
+            y.scale(scale)
+        return scale < 1.0
+
+    def _solve_with_fallback(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
+        """:meth:`solve` with the line search as set up."""
         start = x.copy() if self.fallback else None
         result = self._solve_once(x, g, load)
         if start is None:
@@ -414,32 +475,6 @@ class SNESNewton:
             self._set_line_search(DEFAULT_PETSC_OPTIONS["snes_linesearch_type"])
         retry.iterations += result.iterations
         return retry
-
-    def tangent_step(self, x: PETSc.Vec, g: np.ndarray, load: float) -> bool:
-        """x += the full Newton step at the load factor ``load`` with the constrained values ``g``
-        from x, without line search: from an equilibrium x at another load factor it is the
-        tangent (Euler) prediction x + Δλ dx/dλ. Returns False, x unchanged, where the tangent
-        at x is not finite or the step is not (collective)."""
-        self.g = np.asarray(g, dtype=np.float64)
-        if load != self.equilibrium.load:
-            self.equilibrium.set_load(load)
-            self.forget_force()
-        self.equilibrium.residual(x, self.b)
-        self.disc.constraints.set_residual_rows(x, self.b, self.g)
-        self.equilibrium.tangent(x, self.A)
-        self._start_state_current = False
-        if not np.isfinite(self.free_row_norm(self.A)):
-            return False
-        self.disc.constraints.eliminate(self.A, self.b)
-        step = x.duplicate()
-        self.ksp.setOperators(self.A)
-        self.ksp.solve(self.b, step)
-        finite = np.isfinite(step.norm())
-        if finite:
-            x.axpy(-1.0, step)
-            x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        step.destroy()
-        return finite
 
     def force_at(self, x: PETSc.Vec) -> AssemblyInfo:
         """Internal minus external force at ``x`` (ghosts current) and the current load factor
@@ -470,6 +505,7 @@ class SNESNewton:
             self.forget_force()
         self.history = []
         self.worst_info = None
+        self._merit = self._merit_asked
         self._start(x)
         if not np.isfinite(self._stiffness):          # e.g. a predicted state with J <= 0: no Newton from there
             return NewtonResult(False, int(PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN), 0, [], float("nan"),

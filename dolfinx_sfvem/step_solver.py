@@ -11,7 +11,6 @@ from __future__ import annotations
 import typing
 
 import numpy as np
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import ContactPressure, Gap
@@ -58,22 +57,11 @@ class StepSolver:
         self._tolerance = tolerance
         self.contact: tuple[Gap, ContactPressure] | None = None
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         """Newton's solve for the load factor ``load`` from :attr:`x` (constrained values
-        ``load * final``), then :meth:`accept`."""
-        return self.accept(self.newton.solve(self.x, load * self.final, load))
-
-    @property
-    def load_driven(self) -> bool:
-        """Whether λ scales loads only: some load is defined and every prescribed displacement is
-        zero (collective)."""
-        prescribed = bool(np.any(self.final != 0.0))
-        return self.equilibrium.has_loads and not self.newton.comm.allreduce(prescribed, op=MPI.LOR)
-
-    def predict_at(self, load: float) -> bool:
-        """:attr:`x` moved to the tangent prediction at ``load`` (one full Newton step from it,
-        :meth:`SNESNewton.tangent_step`); whether it was made (collective)."""
-        return self.newton.tangent_step(self.x, load * self.final, load)
+        ``load * final``), then :meth:`accept`; ``energy_merit``: its steps judged by the total
+        potential while far from the solution, where there is one (:meth:`SNESNewton.solve`)."""
+        return self.accept(self.newton.solve(self.x, load * self.final, load, energy_merit))
 
     def accept(self, result: NewtonResult) -> NewtonResult:
         """A converged state whose solids overlap is rejected (``converged`` False, ``failure``

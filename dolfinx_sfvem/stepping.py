@@ -110,12 +110,14 @@ class LoadStepping(Control):
 
     Predictor (``predictor``, the default): a step starts from the secant extrapolation of the
     last two converged states, x_n + (Δλ / Δλ_prev)(x_n - x_{n-1}), not from x_n; prescribed
-    displacements are then at their new values already. The first step of a path driven by loads
-    alone (no prescribed displacement varies) from λ = 0 starts from the tangent prediction
-    x_0 + Δλ dx/dλ, one full Newton step: from the stress-free state the line search cuts
-    Newton's steps to a few percent for tens of iterations, the residual norm being a poor merit
-    there (docs/notes/2026-11-26-tolerances-volume-first-step.md). Where Newton cannot even start from the
+    displacements are then at their new values already. Where Newton cannot even start from the
     prediction (a fold or J <= 0 in it), the step starts from x_n instead.
+
+    The first step from λ = 0 (no converged step yet) judges Newton's steps by the total
+    potential while far from the solution, where there is one and no prescribed displacement
+    moves in it (:meth:`StepSolver.solve_at`): from the stress-free state the residual's norm is a
+    poor merit, and the default line search crept at a few percent of Newton's step for tens of
+    iterations (docs/notes/2026-11-26-tolerances-volume-first-step.md).
 
     A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
     by the caller such as overlapping solids) is retried from the last converged state with half
@@ -186,12 +188,8 @@ class LoadStepping(Control):
             self.previous.destroy()
         self.previous = None
 
-    def _predict(self, solver: StepSolver, target: float) -> bool:
-        """The state moved to the prediction at ``target``; whether there was one to make: the
-        secant one, or on the first step of a load-driven path from λ = 0 the tangent one."""
-        x = solver.x
-        if self.predictor and self.previous is None and self.load == 0.0 and solver.load_driven:
-            return solver.predict_at(target)
+    def _predict(self, x: PETSc.Vec, target: float) -> bool:
+        """x moved to the secant prediction at ``target``; whether there was one to make."""
         if not self.predictor or self.previous is None or self.load <= self.previous_load:
             return False
         x.scale(1.0 + (target - self.load) / (self.load - self.previous_load))
@@ -217,14 +215,14 @@ class LoadStepping(Control):
             target = min(self.load + self.increment, self.until)
             saved = x.copy()
             t0 = time.perf_counter()
-            if self._predict(solver, target):
+            if self._predict(x, target):
                 result = solver.solve_at(target)
                 if not result.converged and result.iterations == 0:      # Newton could not start there
                     saved.copy(x)
                     x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
                     result = solver.solve_at(target)
             else:
-                result = solver.solve_at(target)
+                result = solver.solve_at(target, energy_merit=self.load == 0.0 and self.previous is None)
             elapsed = time.perf_counter() - t0
             if result.converged:
                 self.forget_history()

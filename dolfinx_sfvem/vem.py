@@ -213,7 +213,8 @@ class SFVEMDiscretization(Discretization):
     def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
         """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
         ``uses_gradient`` as the region's energy does: the term is assembled with the region's
-        basis tables."""
+        basis tables; a :class:`VolumeWork` term −p ∫ (J − 1) dΩ is evaluated exactly instead, from
+        the area enclosed by the region's deformed boundary traces (:class:`_AreaTerm`)."""
         region = next((reg for reg in self.regions if reg.tag == tag), None)
         if region is None:
             raise ValueError(f"energy term on region {tag}, which the mesh does not have")

@@ -10,9 +10,6 @@
   alpha_r = 0) has no negative pivots on its path: with ∫ det Π⁰_l∇u it had 170 to 395
   (docs/thick-cylinder.md).
 """
-import sys
-import pathlib
-
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -21,9 +18,7 @@ from petsc4py import PETSc
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
 from dolfinx_sfvem.energy import VolumeWork
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "demos"))
-import thick_cylinder as tc  # noqa: E402
+import thick_cylinder as tc
 
 COMM = MPI.COMM_WORLD
 MEDIUM = meshes.MEDIUM
@@ -99,10 +94,10 @@ def test_area_change_is_exact_for_random_displacements(size, method):
 
 
 def test_force_and_tangent_against_central_differences():
-    """At a random state (displacements 1e-3, the regions' energies finite): the force is the derivative of the energy and the tangent (the assembled
-    tangent with the term at p = 1 minus the one at p = 0) the derivative of the force, along a
-    random direction, by central differences (exact for the area, a quadratic form of the
-    positions, so to round-off)."""
+    """At a random state (displacements 1e-3, the regions' energies finite): the force is the
+    derivative of the energy and the tangent (the assembled tangent with the term at p = 1 minus
+    the one at p = 0) the derivative of the force, along a random direction, by central
+    differences (exact for the area, a quadratic form of the positions, so to round-off)."""
     disc, term = cavity()
     x, d = random_state(disc, 1e-3, seed=2), random_state(disc, 1.0, seed=3)
     b, b_plus, b_minus = disc.create_vector(), disc.create_vector(), disc.create_vector()
@@ -132,7 +127,7 @@ def test_force_and_tangent_against_central_differences():
 @pytest.mark.parametrize("p", [1e-4, tc.P_REF])
 def test_weak_medium_in_a_pressurized_cavity_has_no_negative_pivots(p):
     """Thick cylinder, cavity pressure on a medium of gamma = 1e-6, alpha_r = 0 (h = 0.2, four
-    steps): every step stable (0 negative pivots; 170 at p = 1e-4 and 395 at 2/15 after one step
+    steps or more): every step stable (0 negative pivots; 170 at p = 1e-4 and 395 at 2/15 after one step
     with ∫ det Π⁰_l∇u), and the answer within the coarse mesh's error of the BVP with that
     medium (the chords' O(h^2): conjugate 2.6e-4 short, L2 2e-4)."""
     a = tc.common.parse_args(tc.make_parser(), ["--quiet", "--gamma", "1e-6", "--alpha-r", "0"])
@@ -140,6 +135,7 @@ def test_weak_medium_in_a_pressurized_cavity_has_no_negative_pivots(p):
     problem = tc.build("cavity", p, "vem", benchmark, a)
     result = problem.solve(4)
     assert result.converged, result.message
-    assert [s["negative_pivots"] for s in result.steps] == [0] * 4
+    pivots = [s["negative_pivots"] for s in result.steps]
+    assert len(pivots) >= 4 and pivots == [0] * len(pivots), pivots
     r = tc.compare(problem, tc.RunSummary.from_dict(result.summary), tc.radial_answer("cavity", p, 1e-6), benchmark)
     assert abs(r["conjugate_error"]) < 1e-3 and r["L2"] < 5e-4, r

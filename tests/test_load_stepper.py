@@ -43,7 +43,7 @@ class newton_to:
     def __init__(self, x: PETSc.Vec, fails_above: float):
         self.x, self.fails_above = x, fails_above
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         self.x.set(load)
         ok = load <= self.fails_above + 1e-12
         return NewtonResult(ok, 2 if ok else -5, 3, [1.0, 1e-12], 1.0, 0, 1, failure="" if ok else "diverged")
@@ -81,23 +81,18 @@ def test_smallest_increment_failing_raises_after_the_attempt():
 class path_solver:
     """A stand-in for the step solver on the linear path x(λ) = λ (1, 2): Newton takes
     ``iterations(load, start)`` iterations from the state it starts at and reaches x(λ); it
-    records where every solve started and rejects the loads ``rejected(load)`` says; with
-    ``load_driven`` its tangent prediction is the path's point (the path is linear)."""
+    records where every solve started and rejects the loads ``rejected(load)`` says."""
 
-    def __init__(self, iterations, rejected=lambda load: False, admissible=lambda load, start: True,
-                 load_driven=False):
+    def __init__(self, iterations, rejected=lambda load: False, admissible=lambda load, start: True):
         self.x = state()
         self.iterations, self.rejected, self.admissible = iterations, rejected, admissible
-        self.load_driven = load_driven
         self.starts = []
+        self.merits = []        # energy_merit of every solve
 
-    def predict_at(self, load: float) -> bool:
-        self.x.setValues([0, 1], [load, 2 * load])
-        return True
-
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         start = self.x.array.copy()
         self.starts.append((load, start))
+        self.merits.append(energy_merit)
         if not self.admissible(load, start):
             return NewtonResult(False, -3, 0, [], np.nan, -1, -1, failure="domain")
         if self.rejected(load):
@@ -124,19 +119,23 @@ def test_hard_steps_shrink_the_increment_but_not_below_the_minimum():
     assert np.all(increments[3:-1] == pytest.approx(0.05)) and loads[-1] == 1.0
 
 
+def test_only_the_first_step_asks_for_the_energy_merit():
+    """The solves of the first step from λ = 0 (its cut-backs included) ask for the energy merit,
+    no later one does."""
+    solver = path_solver(lambda load, start: 2, rejected=lambda load: 0.2 < load < 0.3)
+    attempts = list(LoadStepping(4).attempts(solver))
+    first = [k for k, a in enumerate(attempts) if a.converged][0]
+    assert attempts[0].load == 0.25 and first > 0, [a.load for a in attempts]
+    assert solver.merits == [True] * (first + 1) + [False] * (len(attempts) - first - 1), solver.merits
+
+
 def test_the_predictor_starts_from_the_secant_extrapolation():
     """On the linear path the secant prediction is the solution: from the third step on every
-    solve starts at its own target; a path driven by loads alone starts its first step from the
-    tangent prediction (here the solution too), one with prescribed displacements from the
-    reference state; without the predictor every solve starts at the last state."""
+    solve starts at its own target; without the predictor every solve starts at the last state."""
     solver = path_solver(lambda load, start: 3)
     loads = [a.load for a in LoadStepping(8).attempts(solver)]
     for load, start in solver.starts[2:]:
         np.testing.assert_allclose(start, [load, 2 * load], rtol=1e-12)
-    assert np.all(solver.starts[0][1] == 0.0)
-    driven = path_solver(lambda load, start: 3, load_driven=True)
-    list(LoadStepping(8).attempts(driven))
-    np.testing.assert_allclose(driven.starts[0][1], [1 / 8, 2 / 8], rtol=1e-12)
     plain = path_solver(lambda load, start: 3)
     loads = [a.load for a in LoadStepping(8, predictor=False).attempts(plain)]
     for (load, start), before in zip(plain.starts[1:], loads):
