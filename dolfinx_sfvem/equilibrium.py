@@ -110,6 +110,22 @@ class Equilibrium:
             b.axpy(-self.load, self._assemble(followers, x, self._work))
         return info
 
+    @property
+    def conservative(self) -> bool:
+        """Whether R = ∂Π/∂u for the total potential :meth:`potential`: no load follows the
+        deformation outside an energy term (a follower pressure has no potential)."""
+        return not self._followers()
+
+    def potential(self, x: PETSc.Vec) -> float:
+        """Π(u; λ) = W(u) − λ f_dead · u at x (ghosts current): the stored energy with the energy
+        terms' (:attr:`AssemblyInfo.energy`) minus the dead loads' work; inf where the state is
+        not admissible. Meaningful when :attr:`conservative` (collective)."""
+        info = self.disc.residual(x, self._work)
+        if not info.admissible:
+            return float("inf")
+        dead = self._dead_force()
+        return info.energy - (self.load * dead.dot(x) if dead is not None else 0.0)
+
     def tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """∂R/∂u at x into A, assembled, constraints not applied (collective)."""
         self.disc.assemble_tangent(x, A)

@@ -28,15 +28,21 @@ tangent; :class:`~dolfinx_sfvem.equilibrium.Equilibrium` says when the tangent i
 Default absolute tolerance: unless ``snes_atol`` is given (command line or Python), it
 follows the round-off level of the residual,
 
-    atol = ATOL_ROUNDOFF_FACTOR * eps * F_c,
+    atol = max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * r_0),
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + ||f||_inf,
+    r_0  = eps * ||K||_inf * h * sqrt(n),
 
 with ``||K||_inf`` the largest absolute row sum of the tangent over the free rows (taken at the
 tangent of the start state of every solve), ``x`` the state, ``g`` the prescribed values,
-``f`` the external force at the load factor of the solve (body force and loads) and ``eps``
-machine epsilon; ``atol`` is updated at every tangent. It is proportional to the moduli, so
-moduli and loads scaled together give the same Newton iterations and solution. Why and what was
-measured: docs/method.md §6.
+``f`` the external force at the load factor of the solve (body force and loads), ``h`` the
+mesh's node spacing (:func:`node_spacing`), ``n`` the number of unknowns and ``eps`` machine
+epsilon; ``atol`` is updated at every tangent. ``F_c`` is the size of the element forces the
+residual is summed from. ``r_0`` is the residual's round-off floor near F = I, where the stress
+terms are O(modulus) each and cancel: their round-off, eps times a force ``||K||_inf h`` per
+row, does not shrink with the load (measured: Newton stagnates at 0.003 to 0.02 r_0, SFVEM and
+FEM, 2.5e3 to 3.3e4 unknowns; docs/notes/2026-11-26-tolerances-volume-first-step.md), so a tiny
+load converges on the defaults. Both are proportional to the moduli, so moduli and loads scaled
+together give the same Newton iterations and solution. Why and what was measured: docs/method.md §6.
 """
 from __future__ import annotations
 
@@ -48,7 +54,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _compat
-from .discretization import AssemblyInfo
+from .discretization import AssemblyInfo, Discretization
 from .equilibrium import Equilibrium
 from .linear_solvers import configure_ksp, linear_solver_options, rigid_body_modes
 
@@ -69,6 +75,13 @@ DEFAULT_PETSC_OPTIONS: dict[str, str] = {
 FALLBACK_LINE_SEARCH = "l2"
 #: the default ``snes_atol`` in units of the round-off level ``eps * F_c`` of the residual (module docstring)
 ATOL_ROUNDOFF_FACTOR = 1e4
+#: the default ``snes_atol`` is at least this many times the round-off floor r_0 of the residual (module docstring)
+FLOOR_FACTOR = 10.0
+#: with the energy merit, Newton takes full steps once the residual is below this fraction of its
+#: initial value (the potential's decrease then nears its round-off; :meth:`SNESNewton.solve`)
+MERIT_SWITCH = 1e-2
+#: the most halvings of a Newton step in search of a lower potential
+MERIT_HALVINGS = 20
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
 
@@ -230,6 +243,24 @@ def negative_pivots(pc: PETSc.PC) -> int | None:
     return int(pc.getFactorMatrix().getMumpsInfog(12))
 
 
+def node_spacing(disc: Discretization) -> float:
+    """The mean spacing of the nodes of ``disc``, (|B| / n)^(1/d) with |B| the measure of the
+    bounding box of the nodes, n their number over all ranks and d the dimension of
+    :attr:`~Discretization.x_nodes` (a length in any dimension; collective).
+
+    It scales the round-off floor of the residual: near F = I the residual's stress terms are
+    O(modulus) each and cancel, and their round-off is eps times a force of that size,
+    ``||K||_inf h`` per row, however small the displacement (module docstring).
+    """
+    X = disc.x_nodes[:disc.n_owned_nodes]
+    dim = disc.x_nodes.shape[1]
+    low = disc.comm.allreduce(X.min(axis=0, initial=np.inf), op=MPI.MIN)
+    high = disc.comm.allreduce(X.max(axis=0, initial=-np.inf), op=MPI.MAX)
+    n = disc.comm.allreduce(disc.n_owned_nodes, op=MPI.SUM)
+    extent = (high - low)[high > low]
+    return float(np.prod(extent) / n) ** (1.0 / extent.size) if extent.size else 0.0
+
+
 class SNESNewton:
     """PETSc SNES (Newton with line search) for ``R(x; λ) = 0`` with constrained rows ``x_c = g_c``.
 
@@ -261,6 +292,9 @@ class SNESNewton:
         self.prefix = prefix
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
+        #: h sqrt(n) of the residual's round-off floor r_0 = eps ||K||_inf h sqrt(n) (module docstring)
+        self.floor_length = node_spacing(disc) * float(np.sqrt(disc.num_dofs_global))
+        self.roundoff = 0.0         # eps F_c at the last :meth:`absolute_tolerance`
         self.A = disc.create_matrix()
         self.A.setNearNullSpace(rigid_body_modes(disc.x_nodes, disc.n_owned_nodes, disc.create_vector))
         self.b = disc.create_vector()
@@ -280,7 +314,9 @@ class SNESNewton:
         snes.setOptionsPrefix(prefix)
         snes.setFunction(self._residual, self.b)
         snes.setJacobian(self._jacobian, self.A)
-        snes.setMonitor(lambda _snes, it, norm: self.history.append(float(norm)))
+        self._merit_asked = False   # the current solve asked for the energy merit (:meth:`solve`)
+        self._merit = False         # its steps are judged by the potential now
+        snes.setMonitor(self._monitor)
         self.options = dict(options or {})
         self.linear_solver = linear_solver
         self.defaults = {**DEFAULT_PETSC_OPTIONS, **linear_solver_options(linear_solver)}
@@ -331,11 +367,12 @@ class SNESNewton:
         """Line-search pre-check: SNES's residual F at x back in place of the lifted right-hand
         side of the linear solve, so that the line search works with the residual whose norm SNES
         tests (its slope F·(A y) is then exact up to F_f·K_fc δ_c, zero when F_f or δ_c is); the
-        step y is left unchanged. Nothing to do after a lagged Jacobian (F was not lifted)."""
+        step y is left unchanged but in the energy merit's phase (:meth:`_descend`). Nothing to undo
+        after a lagged Jacobian (F was not lifted)."""
         if self._lifted:
             self._unlifted.copy(self.b)
             self._lifted = False
-        return False
+        return self._descend(x, y) if self._merit else False
 
     def _start(self, x: PETSc.Vec) -> None:
         """The tangent at the start state ``x`` of a solve into :attr:`A`, constraints not applied:
@@ -367,22 +404,79 @@ class SNESNewton:
     def absolute_tolerance(self, x: PETSc.Vec, stiffness: float | None = None) -> float:
         """The default absolute tolerance at the state x (collective).
 
-        ``ATOL_ROUNDOFF_FACTOR * eps * (||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf)``
-        with ``||K||_inf`` of the free rows (``stiffness``; default: from the tangent at the
-        start state of the current solve, 0 before any), ``g`` of the current solve and ``f``
-        the external force at its load factor; see the module docstring.
+        ``max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * eps * ||K||_inf h sqrt(n))``,
+        ``F_c = ||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf``, with ``||K||_inf`` of the free
+        rows (``stiffness``; default: from the tangent at the start state of the current solve,
+        0 before any), ``g`` of the current solve, ``f`` the external force at its load factor
+        and ``h sqrt(n)`` :attr:`floor_length`; see the module docstring. Sets :attr:`roundoff`
+        to ``eps * F_c``.
         """
         stiffness = self._stiffness if stiffness is None else stiffness
         g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
         force = stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + self.equilibrium.external_force_norm()
-        return ATOL_ROUNDOFF_FACTOR * float(np.finfo(np.float64).eps) * force
+        eps = float(np.finfo(np.float64).eps)
+        self.roundoff = eps * force
+        return max(ATOL_ROUNDOFF_FACTOR * eps * force, FLOOR_FACTOR * eps * stiffness * self.floor_length)
 
-    def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0) -> NewtonResult:
+    def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0, energy_merit: bool = False) -> NewtonResult:
         """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
         constrained unknowns (``disc.constraints.owned``) at the load factor ``load``; a failed
         solve with the default line search is repeated from the same start with
         :data:`FALLBACK_LINE_SEARCH` (its iterations are counted in the result's, its residual
-        norms and failure are the result's)."""
+        norms and failure are the result's).
+
+        ``energy_merit``: while the residual is above :data:`MERIT_SWITCH` of its initial value,
+        a Newton step is shortened (halved) until it lowers the total potential
+        (:meth:`Equilibrium.potential`) and then taken as it is (line search ``basic``); closer to
+        the solution full Newton steps. Only where the balance has a potential
+        (:attr:`Equilibrium.conservative`), the constrained unknowns are at ``g`` already (the
+        potential is then minimal at the solution) and the line search is the default one. From
+        a stress-free state the residual's norm rises along Newton's step (its linearized
+        rotations stretch stiff material) while the potential falls, and the norm-based line
+        search creeps at a few percent of every step
+        (docs/notes/2026-11-26-tolerances-volume-first-step.md)."""
+        with x.localForm() as xl:
+            moved = bool(np.any(xl.array_r[self.disc.constraints.owned] != np.asarray(g)))
+        moved = self.comm.allreduce(moved, op=MPI.LOR)
+        self._merit_asked = energy_merit and self.fallback and self.equilibrium.conservative and not moved
+        if not self._merit_asked:
+            return self._solve_with_fallback(x, g, load)
+        self._set_line_search("basic")
+        try:
+            return self._solve_with_fallback(x, g, load)
+        finally:
+            self._merit_asked = self._merit = False
+            self._set_line_search(DEFAULT_PETSC_OPTIONS["snes_linesearch_type"])
+
+    def _monitor(self, snes: PETSc.SNES, iteration: int, norm: float) -> None:
+        """Records the residual norms; ends the energy merit's phase (:meth:`solve`) once the
+        residual fell below :data:`MERIT_SWITCH` of its initial value: near the solution the
+        potential's decrease along a step, about |R|²/K, nears its round-off."""
+        self.history.append(float(norm))
+        if self._merit and norm < MERIT_SWITCH * self.history[0]:
+            self._merit = False
+
+    def _descend(self, x: PETSc.Vec, y: PETSc.Vec) -> bool:
+        """The Newton step x - y halved until it lowers the total potential (at most
+        :data:`MERIT_HALVINGS` times; y scaled in place); whether y changed (collective)."""
+        trial = x.duplicate()
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        start = self.equilibrium.potential(x)
+        scale = 1.0
+        for _ in range(MERIT_HALVINGS):
+            x.copy(trial)
+            trial.axpy(-scale, y)
+            trial.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            if self.equilibrium.potential(trial) <= start:
+                break
+            scale /= 2
+        trial.destroy()
+        if scale < 1.0:
+            y.scale(scale)
+        return scale < 1.0
+
+    def _solve_with_fallback(self, x: PETSc.Vec, g: np.ndarray, load: float) -> NewtonResult:
+        """:meth:`solve` with the line search as set up."""
         start = x.copy() if self.fallback else None
         result = self._solve_once(x, g, load)
         if start is None:
@@ -430,6 +524,7 @@ class SNESNewton:
             self.forget_force()
         self.history = []
         self.worst_info = None
+        self._merit = self._merit_asked
         self._start(x)
         if not np.isfinite(self._stiffness):          # e.g. a predicted state with J <= 0: no Newton from there
             return NewtonResult(False, int(PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN), 0, [], float("nan"),
@@ -444,8 +539,7 @@ class SNESNewton:
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
         atol = self.snes.getTolerances()[1]
-        failure = "" if ok else _failure(reason, info, self.history, atol,
-                                         atol / ATOL_ROUNDOFF_FACTOR if self.scaled_atol else None)
+        failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
                             self.negative_pivots())

@@ -57,10 +57,11 @@ class StepSolver:
         self._tolerance = tolerance
         self.contact: tuple[Gap, ContactPressure] | None = None
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         """Newton's solve for the load factor ``load`` from :attr:`x` (constrained values
-        ``load * final``), then :meth:`accept`."""
-        return self.accept(self.newton.solve(self.x, load * self.final, load))
+        ``load * final``), then :meth:`accept`; ``energy_merit``: its steps judged by the total
+        potential while far from the solution, where there is one (:meth:`SNESNewton.solve`)."""
+        return self.accept(self.newton.solve(self.x, load * self.final, load, energy_merit))
 
     def accept(self, result: NewtonResult) -> NewtonResult:
         """A converged state whose solids overlap is rejected (``converged`` False, ``failure``

@@ -117,6 +117,12 @@ class LoadStepping(Control):
     displacements are then at their new values already. Where Newton cannot even start from the
     prediction (a fold or J <= 0 in it), the step starts from x_n instead.
 
+    The first step from λ = 0 (no converged step yet) judges Newton's steps by the total
+    potential while far from the solution, where there is one and no prescribed displacement
+    moves in it (:meth:`StepSolver.solve_at`): from the stress-free state the residual's norm is a
+    poor merit, and the default line search crept at a few percent of Newton's step for tens of
+    iterations (docs/notes/2026-11-26-tolerances-volume-first-step.md).
+
     A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
     by the caller such as overlapping solids) is retried from the last converged state with half
     the increment, down to ``min_increment``; when even that fails, :class:`SolveFailed` is
@@ -221,7 +227,7 @@ class LoadStepping(Control):
                     x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
                     result = solver.solve_at(target)
             else:
-                result = solver.solve_at(target)
+                result = solver.solve_at(target, energy_merit=self.load == 0.0 and self.previous is None)
             elapsed = time.perf_counter() - t0
             if result.converged:
                 self.forget_history()

@@ -8,6 +8,7 @@ into the ghosted local form of a PETSc vector and accumulated over ranks.
 """
 from __future__ import annotations
 
+import dataclasses
 import typing
 from dataclasses import dataclass
 
@@ -19,7 +20,8 @@ from . import _compat, node_keys
 from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, first_piola_at, load_loop,
                        projected_fields, residual_loop, tangent_loop)
 from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
-from .energy import Energy
+from .enclosed_area import area_force_loop, area_tangent_loop
+from .energy import Energy, VolumeWork
 from .injectivity import folded_elements, gather_count
 from .compiled_energy import EnergyKernels, compile_kernels
 from .polygon_mesh import PolygonMesh
@@ -50,6 +52,21 @@ class _Region:
     @property
     def params(self) -> dict[str, float]:
         return self.energy.params if self.term is None else self.term.params
+
+
+@dataclass
+class _AreaTerm:
+    """The energy term −p ∫ (J − 1) dΩ (:class:`VolumeWork`) over a region, as −p (A(x) − A(X)):
+    the area enclosed by the deformed boundary traces of its polygons (:mod:`~dolfinx_sfvem.enclosed_area`),
+    exact for any nodal displacement, where the projected gradient's ∫ det Π⁰_l∇u is not."""
+    tag: int
+    energy: Energy
+    polygons: np.ndarray     # local polygon indices (int64)
+    term: EnergyTerm
+
+    @property
+    def params(self) -> dict[str, float]:
+        return self.term.params
 
 
 class SFVEMDiscretization(Discretization):
@@ -157,6 +174,10 @@ class SFVEMDiscretization(Discretization):
             u = xl.array_r.reshape(-1, 2)
             R = bl.array.reshape(-1, 2)
             for reg in regions:
+                if isinstance(reg, _AreaTerm):
+                    stats[0] -= reg.params["p"] * area_force_loop(reg.polygons, self.space.dof_offsets, self.space.dofs,
+                                                                  self.space.x_nodes, u, -reg.params["p"], R)
+                    continue
                 k = reg.kernels
                 P_at, T_at = _residual_at(k)
                 c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
@@ -182,6 +203,9 @@ class SFVEMDiscretization(Discretization):
         with x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)
             for reg in self.regions + self.terms:
+                if isinstance(reg, _AreaTerm):
+                    area_tangent_loop(reg.polygons, self.space.dof_offsets, -reg.params["p"], values, self._coo_off)
+                    continue
                 k = reg.kernels
                 D_at, A_at, B_at = _tangent_at(k)
                 c = k.pack_constants(reg.params)
@@ -194,7 +218,8 @@ class SFVEMDiscretization(Discretization):
     def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
         """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
         ``uses_gradient`` as the region's energy does: the term is assembled with the region's
-        basis tables."""
+        basis tables; a :class:`VolumeWork` term −p ∫ (J − 1) dΩ is evaluated exactly instead, from
+        the area enclosed by the region's deformed boundary traces (:class:`_AreaTerm`)."""
         region = next((reg for reg in self.regions if reg.tag == tag), None)
         if region is None:
             raise ValueError(f"energy term on region {tag}, which the mesh does not have")
@@ -202,15 +227,18 @@ class SFVEMDiscretization(Discretization):
             raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
                              f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
         term = EnergyTerm(tag, energy, dict(energy.params))
-        self.terms.append(_Region(tag, energy, compile_kernels(energy, self.comm), region.polygons, term))
+        if isinstance(energy, VolumeWork):       # ∫ (J − 1) dΩ exactly, from the boundary traces
+            self.terms.append(_AreaTerm(tag, energy, region.polygons, term))
+        else:
+            self.terms.append(_Region(tag, energy, compile_kernels(energy, self.comm), region.polygons, term))
         return term
 
     def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
                    params: typing.Mapping[str, float] | None = None) -> float:
         """b = ∂/∂ũ ∫ ψ dΩ of the term alone (Eq. 52 over its region) with ``params``; returns ∫ ψ dΩ."""
         reg = next(reg for reg in self.terms if reg.term is term)
-        alone = _Region(reg.tag, reg.energy, reg.kernels, reg.polygons,
-                        EnergyTerm(term.tag, term.energy, dict(params if params is not None else term.params)))
+        alone = dataclasses.replace(reg, term=EnergyTerm(term.tag, term.energy,
+                                                         dict(params if params is not None else term.params)))
         stats = self._internal_force(x, b, [alone])
         return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
 

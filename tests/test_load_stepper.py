@@ -43,7 +43,7 @@ class newton_to:
     def __init__(self, x: PETSc.Vec, fails_above: float):
         self.x, self.fails_above = x, fails_above
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         self.x.set(load)
         ok = load <= self.fails_above + 1e-12
         return NewtonResult(ok, 2 if ok else -5, 3, [1.0, 1e-12], 1.0, 0, 1, failure="" if ok else "diverged")
@@ -87,10 +87,12 @@ class path_solver:
         self.x = state()
         self.iterations, self.rejected, self.admissible = iterations, rejected, admissible
         self.starts = []
+        self.merits = []        # energy_merit of every solve
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         start = self.x.array.copy()
         self.starts.append((load, start))
+        self.merits.append(energy_merit)
         if not self.admissible(load, start):
             return NewtonResult(False, -3, 0, [], np.nan, -1, -1, failure="domain")
         if self.rejected(load):
@@ -115,6 +117,16 @@ def test_hard_steps_shrink_the_increment_but_not_below_the_minimum():
     increments = np.diff([0.0] + loads)
     assert increments[:4] == pytest.approx([0.25, 0.125, 0.0625, 0.05])
     assert np.all(increments[3:-1] == pytest.approx(0.05)) and loads[-1] == 1.0
+
+
+def test_only_the_first_step_asks_for_the_energy_merit():
+    """The solves of the first step from λ = 0 (its cut-backs included) ask for the energy merit,
+    no later one does."""
+    solver = path_solver(lambda load, start: 2, rejected=lambda load: 0.2 < load < 0.3)
+    attempts = list(LoadStepping(4).attempts(solver))
+    first = [k for k, a in enumerate(attempts) if a.converged][0]
+    assert attempts[0].load == 0.25 and first > 0, [a.load for a in attempts]
+    assert solver.merits == [True] * (first + 1) + [False] * (len(attempts) - first - 1), solver.merits
 
 
 def test_the_predictor_starts_from_the_secant_extrapolation():
