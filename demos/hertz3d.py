@@ -139,7 +139,7 @@ def hertz_rows(summary: RunSummary, block: int, gap: float, stiffness: float) ->
                      "a_zone": math.sqrt(4 * c["zone_length"] / math.pi),
                      "a_p": math.sqrt(3 * F / (2 * math.pi * c["max_pressure"])),
                      "p_max": c["max_pressure"], "a_H": h.a, "p0_H": h.p0, "delta_H": h.delta,
-                     "gap": c["gap"], "F_reaction": 4 * s.reaction["load"][2]})
+                     "gap": c["gap"], "F_reaction": -4 * s.reaction["load"][2]})
     return rows
 
 
