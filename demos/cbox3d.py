@@ -44,8 +44,20 @@ Point contact, Q2 hexahedra, then P2 tetrahedra on the same nodes::
 
 Measured
 --------
-See the table in docs/notes/2026-11-26-demos3d.md (unknowns, Newton iterations, time per
-iteration, reaction at full load, hexahedra against tetrahedra).
+2026-11-26, 1 rank, MUMPS LDL^T, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md):
+
+=====================  =========  ========  ===================  ================================
+cells                  unknowns   load      Newton iterations    what stops it
+=====================  =========  ========  ===================  ================================
+Q2 hex (20, 4, 7)      16,605     0.800     ~130, ~5 s each      medium inverts (J < 0) at 0.85;
+                                                                 beam tip 4.5e-3 into the lower
+                                                                 beam at 0.814 (overlap check)
+Q2 hex, HuHu 1e-4      16,605     0.35      --                   medium inverts
+=====================  =========  ========  ===================  ================================
+
+Default parameters (rotation, alpha_r = 1, gamma = 1e-5): the smallest gap stays positive
+(0.017 at 0.800). Not yet measured: the full load, P2 tetrahedra against Q2 hexahedra, the line
+contact. Compiling the Q2 tangent takes ~4 min of CPU (13 min on the loaded machine) the first time.
 """
 from __future__ import annotations
 

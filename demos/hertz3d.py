@@ -48,7 +48,9 @@ Commands
 
 Measured
 --------
-See docs/notes/2026-11-26-demos3d.md (unknowns, Newton iterations, the errors against Hertz).
+Not yet: the tetrahedral form of the three regions did not finish compiling on 2026-11-26 (more
+than 3.5 min of CPU; docs/notes/2026-11-26-demos3d.md). The default gamma 1e-6 is the paper's;
+whether Newton carries it past contact in 3D is open (in 2D it stalls just after contact).
 """
 from __future__ import annotations
 
