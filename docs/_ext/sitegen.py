@@ -67,7 +67,8 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
     "cbox3d": [
         ("cbox3d-point-hex-deformed.png", "Point contact, Q2 hexahedra (20, 4, 7), rotation regularization: the solids "
                                           "at load 0.807, the last converged step (the medium inverts beyond)"),
-        ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium squeezed between the beams"),
+        ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium "
+                                      "squeezed between the beams"),
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
 }
