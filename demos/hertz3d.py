@@ -50,7 +50,8 @@ Measured
 --------
 2026-11-26, 1 rank, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md): h = 0.1 (11,607
 unknowns), gamma = 1e-6: the gap closes in 1-2 Newton iterations per step, contact at load 0.7 in 17
-(F = 4.31e-4, delta 0.00503 against Hertz's 0.00437); the medium inverted on the step to 0.8. At
+(F = 4.31e-4, delta 0.00503 against Hertz's 0.00437); every step beyond inverted a medium cell
+(steps to 0.8, 0.75, 0.725): gamma = 1e-6 stalls just after contact, as in 2D. At
 h = 0.1 the contact radius (Hertz 0.066) is below one element: a_zone 0.092, p_max 0.017 against
 Hertz's 0.047. The 3 % goal needs h = 0.05 (37,401 unknowns) at an indentation of ~0.04; not run.
 Compiling the three regions' P2 tangent took 46 min on the loaded machine.
