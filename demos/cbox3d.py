@@ -53,11 +53,13 @@ Q2 hex (20, 4, 7)      16,605     0.800     ~130, ~5 s each      medium inverts 
                                                                  beam tip 4.5e-3 into the lower
                                                                  beam at 0.814 (overlap check)
 Q2 hex, HuHu 1e-4      16,605     0.35      --                   medium inverts
+P2 tet (20, 2, 7)      9,225      0.602     ~90, 2-4 s each      medium inverts at 0.62
 =====================  =========  ========  ===================  ================================
 
 Default parameters (rotation, alpha_r = 1, gamma = 1e-5): the smallest gap stays positive
 (0.017 at 0.800). Not yet measured: the full load, P2 tetrahedra against Q2 hexahedra, the line
-contact. Compiling the Q2 tangent takes ~4 min of CPU (13 min on the loaded machine) the first time.
+contact. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded
+machine) the first time.
 """
 from __future__ import annotations
 
