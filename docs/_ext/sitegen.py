@@ -71,6 +71,13 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
                                       "squeezed between the beams"),
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
+    "hertz3d": [
+        ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
+                                              "against indentation and pressure against radius, with Hertz's; the "
+                                              "contact radius is below one element"),
+        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
+        ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
+    ],
 }
 
 #: the API reference's groups: (heading, what it holds, names of dolfinx_sfvem.__all__)
