@@ -54,10 +54,10 @@ def json_default(obj):
 
 def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mapping]) -> None:
     """One row per converged step: step, load, Newton iterations, smallest gap between the solids
-    and its deformed position (``gap``, ``gap_x``, ``gap_y``; empty where not measured), negative
+    and its deformed position (``gap``, ``gap_x``, ``gap_y`` (, ``gap_z`` in 3D); empty where not measured), negative
     pivots of the tangent (``negative_pivots``, empty without an LDL^T factorization), reactions,
     per pair of bodies b-c in contact the medium's force on b, its largest pressure and the contact
-    zone's length (``contact_b-c_Fx``, ``_Fy``, ``_p_max``, ``_zone``), every load's magnitude and
+    zone's length (``contact_b-c_Fx``, ``_Fy`` (, ``_Fz``), ``_p_max``, ``_zone``), every load's magnitude and
     work-conjugate displacement (``<load>_magnitude``, ``<load>_displacement``), extras, the
     unknowns of the step's mesh and the polygons an adaptive refinement split after it (``dofs``,
     ``refined_polygons``)."""
@@ -66,20 +66,21 @@ def write_load_path_csv(path: pathlib.Path, steps: typing.Sequence[typing.Mappin
     loads = sorted({n for s in rows for n in s.get("loads", {})})
     extras = sorted({k for s in rows for k in s.get("extra", {})})
     pairs = sorted({(c["body"], c["partner_body"]) for s in rows for c in s.get("contact", [])})
-    header = ["step", "load", "newton_iterations", "gap", "gap_x", "gap_y", "negative_pivots"] + \
-        [f"{n}_R{c}" for n in names for c in "xy"] + \
-        [f"contact_{b}-{c}_{q}" for b, c in pairs for q in ("Fx", "Fy", "p_max", "zone")] + \
+    axes = "xyz"[:max([len(r) for s in rows for r in s.get("reaction", {}).values()], default=2)]
+    header = ["step", "load", "newton_iterations", "gap", *(f"gap_{c}" for c in axes), "negative_pivots"] + \
+        [f"{n}_R{c}" for n in names for c in axes] + \
+        [f"contact_{b}-{c}_{q}" for b, c in pairs for q in (*(f"F{c}" for c in axes), "p_max", "zone")] + \
         [f"{n}_{q}" for n in loads for q in ("magnitude", "displacement")] + extras + ["dofs", "refined_polygons"]
     lines = []
     for s in rows:
         gap = s.get("gap") or {}
         contact = {(c["body"], c["partner_body"]): c for c in s.get("contact", [])}
-        r = [s["step"], s["load"], s["newton_iterations"], gap.get("value"), *gap.get("x", [None, None]),
+        r = [s["step"], s["load"], s["newton_iterations"], gap.get("value"), *gap.get("x", [None] * len(axes)),
              s.get("negative_pivots")]
-        r += [s["reaction"].get(n, [np.nan, np.nan])[c] for n in names for c in range(2)]
+        r += [s["reaction"].get(n, [np.nan] * len(axes))[c] for n in names for c in range(len(axes))]
         r += [value for pair in pairs for value in
               ([*contact[pair]["force"], contact[pair]["max_pressure"], contact[pair]["zone_length"]]
-               if pair in contact else [None] * 4)]
+               if pair in contact else [None] * (len(axes) + 2))]
         r += [s.get("loads", {}).get(n, {}).get(q) for n in loads for q in ("magnitude", "displacement")]
         r += [s["extra"].get(k, np.nan) for k in extras]
         r += [s.get("dofs"), s.get("refined_polygons", 0)]

@@ -1,5 +1,6 @@
 """Contact honesty: the injectivity guard, the signed gap between the solids, and runs whose
 solids pass through each other never ending as converged (docs/contact.md)."""
+import csv
 import json
 import pathlib
 import subprocess
@@ -381,3 +382,19 @@ def test_segments_cross_on_touching_and_collinear_segments(p, q, r, s, meet):
         for c, d in ((r, s), (s, r)):
             assert segments_cross(*map(float, (*a, *b, *c, *d))) is meet
             assert segments_cross(*map(float, (*c, *d, *a, *b))) is meet
+
+
+def test_load_path_csv_has_three_columns_per_vector_in_3d(tmp_path):
+    """A 3D step's gap position, reactions and contact forces have three components: three columns
+    each, in the header and in the row (a 2D header would shift every later column)."""
+    from dolfinx_sfvem.post import write_load_path_csv
+    step = {"step": 1, "load": 0.5, "newton_iterations": 3, "converged": True, "negative_pivots": 0,
+            "gap": {"value": 0.1, "x": [1.0, 2.0, 3.0]}, "reaction": {"load": [4.0, 5.0, 6.0]},
+            "contact": [{"body": 0, "partner_body": 1, "force": [7.0, 8.0, 9.0], "max_pressure": 10.0,
+                         "zone_length": 11.0}], "extra": {"tip": 12.0}, "dofs": 99}
+    write_load_path_csv(tmp_path / "lp.csv", [step])
+    with open(tmp_path / "lp.csv", newline="") as f:
+        row = next(csv.DictReader(f))
+    assert [float(row[k]) for k in ("gap_x", "gap_y", "gap_z", "load_Rx", "load_Ry", "load_Rz")] == [1, 2, 3, 4, 5, 6]
+    assert [float(row[f"contact_0-1_{q}"]) for q in ("Fx", "Fy", "Fz", "p_max", "zone")] == [7, 8, 9, 10, 11]
+    assert float(row["tip"]) == 12.0 and int(row["dofs"]) == 99

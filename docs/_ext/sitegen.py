@@ -64,6 +64,20 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz-vem-gamma1e-5.png", "gamma = 1e-5: block-top pressure against Hertz's ellipse, and a(P)"),
         ("hertz-vem-gamma1e-6-dual.png", "gamma = 1e-6, thin layer on dual polygons: full load"),
     ],
+    "cbox3d": [
+        ("cbox3d-point-hex-deformed.png", "Point contact, Q2 hexahedra (20, 4, 7), rotation regularization: the solids "
+                                          "at load 0.807, the last converged step (the medium inverts beyond)"),
+        ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium "
+                                      "squeezed between the beams"),
+        ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
+    ],
+    "hertz3d": [
+        ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
+                                              "against indentation and pressure against radius, with Hertz's; the "
+                                              "contact radius is below one element"),
+        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
+        ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
+    ],
 }
 
 #: the API reference's groups: (heading, what it holds, names of dolfinx_sfvem.__all__)

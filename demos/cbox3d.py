@@ -1,0 +1,169 @@
+"""3D C-box self-contact (Wriggers et al. 2025, as dolfiny's ``demo/tmc/3D/Cbox_Wriggers_3D.py``).
+
+Problem
+-------
+A C-shaped block, clamped on its face x = 0, is closed by moving one corner of its upper beam's
+tip: the upper beam bends down and twists until it touches the lower beam. Contact goes through
+the third medium that fills the inside of the C; no contact algorithm is involved.
+
+Geometry and mesh (``sf.meshes.cbox3d``)
+----------------------------------------
+The box [0, 2] x [0, 0.7] x [0, 0.7], wall thickness 0.1: the C lies in the x-z plane and is
+extruded along y (wall x <= 0.1, beams z <= 0.1 and z >= 0.6); the medium fills x >= 0.1,
+0.1 <= z <= 0.6, open at x = 2, y = 0 and y = 0.7. A tensor-product grid of ``--n nx ny nz``
+cells (default 20 4 7; nx must put a grid line on x = 0.1 and nz on z = 0.1 and 0.6), or of
+size about ``--h``; Q2 hexahedra (``--cell hexahedron``, default) or P2 tetrahedra, each hexahedron
+split into 6 (``--cell tetrahedron``: the same nodes, so the same unknowns).
+
+Parameters
+----------
+Solid: E = 5, nu = 0.3 (K = 25/6, mu = 25/13), Eq. 2. Medium: the same mu, bulk modulus
+``--medium-K`` (default the solid's K, as dolfiny, whose medium is the solid's material scaled by
+gamma), ``--gamma``, ``--alpha-r``, ``--regularization`` (Eq. 3; dolfiny: gamma = 2e-6 and a
+rotation regularization on auxiliary fields). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
+(0, 0.25, -1.0) ("point contact", ``--contact point``, default) or (0, 0.5, -2.0) ("line
+contact"), times ``--scale`` (default 1) and the load factor. FEM only (``--method fem``): the
+SFVEM on polyhedra is not there yet.
+
+What it prints and writes
+-------------------------
+Per step the load factor, Newton iterations, the reaction of ``load`` (the force on the moved
+corner, [R_x, R_y, R_z]) and the smallest gap between the beams. In ``--out``: summary.json,
+load_path.csv (per converged step: ``load_R*``, ``clamp_R*``, the corner's displacement
+``tip_u*``, the smallest gap), displacement.xdmf, the 3D pictures of the last state
+(``final-deformed.png``: the solids, medium hidden; ``final-clip.png``: the cut y = 0.35 through
+the contact; ``final-pressure.png``: the contact pressure on the solids) and ``curves.png`` (the
+corner's reaction R_z and the smallest gap against the load factor).
+
+Commands
+--------
+Point contact, Q2 hexahedra, then P2 tetrahedra on the same nodes::
+
+    mpirun -n 2 python3 demos/cbox3d.py --out out/cbox3d-hex
+    mpirun -n 2 python3 demos/cbox3d.py --cell tetrahedron --out out/cbox3d-tet
+
+Measured
+--------
+2026-11-26, 1 rank, MUMPS LDL^T, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md):
+
+=====================  =========  ========  ===================  ================================
+cells                  unknowns   load      Newton iterations    what stops it
+=====================  =========  ========  ===================  ================================
+Q2 hex (20, 4, 7)      16,605     0.807     155 (+141 failed)    medium inverts (J < 0) at 0.85;
+                                                                 beam tip 4.5e-3 into the lower
+                                                                 beam at 0.814 (overlap check)
+Q2 hex, HuHu 1e-4      16,605     0.35      --                   medium inverts
+P2 tet (20, 2, 7)      9,225      0.612     127 (+155 failed)    medium inverts at 0.62
+=====================  =========  ========  ===================  ================================
+
+Default parameters (rotation, alpha_r = 1, gamma = 1e-5); Newton iterations of the converged
+steps (and of the failed ones); about 5 s per iteration for Q2, 2-4 s for P2. The smallest gap stays
+positive (5.6e-4 at 0.807). Not yet measured: the full load, P2 tetrahedra against Q2 hexahedra, the line
+contact. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded
+machine) the first time.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import typing
+
+import numpy as np
+from mpi4py import MPI
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem.benchmarks3d import CBOX3D_T
+
+import _common as common
+
+#: Young's modulus and Poisson ratio of the solid (dolfiny)
+E, NU = 5.0, 0.3
+K, MU = E / (3 * (1 - 2 * NU)), E / (2 * (1 + NU))
+#: displacement of the corner (2, 0, 0.7) at load factor 1 (u_y, u_z)
+CONTACTS = {"point": (0.25, -1.0), "line": (0.5, -2.0)}
+#: default cells per side (x, y, z)
+N_DEFAULT = (20, 4, 7)
+
+
+def make_parser() -> argparse.ArgumentParser:
+    """The shared demo options with the 3D C-box defaults, plus ``--n --cell --contact --medium-K``."""
+    p = common.parser("cbox3d", __doc__, steps=20, meshes=(1,), h=0.1, h_max=CBOX3D_T, gamma=1e-5,
+                      alpha_r=1.0, regularization="rotation")
+    p.set_defaults(method="fem", h=None)
+    p.add_argument("--n", type=common.positive_int, nargs=3, default=None, metavar=("NX", "NY", "NZ"),
+                   help=f"cells per side (default {' '.join(map(str, N_DEFAULT))} unless --h is given)")
+    p.add_argument("--cell", choices=("hexahedron", "tetrahedron"), default="hexahedron",
+                   help="Q2 hexahedra or P2 tetrahedra, 6 per hexahedron (default %(default)s)")
+    p.add_argument("--contact", choices=tuple(CONTACTS), default="point",
+                   help="corner displacement (0, 0.25, -1) 'point' or (0, 0.5, -2) 'line' (default %(default)s)")
+    p.add_argument("--medium-K", type=common.non_negative_float, default=K,
+                   help="bulk modulus of the medium before the gamma scaling (default the solid's, %(default).4g)")
+    p.add_argument("--scale", type=common.positive_float, default=1.0,
+                   help="multiplies the corner displacement of --contact (default %(default)s)")
+    return p
+
+
+def at_point(point: typing.Sequence[float], tol: float = 1e-10) -> typing.Callable[[np.ndarray], np.ndarray]:
+    """Marker of the nodes at the 3D ``point``."""
+    p = np.asarray(point, dtype=np.float64)[:, None]
+    return lambda x: np.linalg.norm(x - p, axis=0) <= tol
+
+
+def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf.ContactProblem, dict]:
+    """The 3D C-box of the command line on ``comm``: the problem (boundary conditions ``clamp`` and
+    ``load``) and the observers ``tip_ux``, ``tip_uy``, ``tip_uz`` (the moved corner's displacement)."""
+    if args.method != "fem":
+        raise ValueError("cbox3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
+    if args.n is not None and args.h is not None:
+        raise ValueError("cbox3d: give --n or --h, not both")
+    box = (sf.meshes.cbox3d(h=args.h, cell=args.cell) if args.h is not None
+           else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell))
+    medium = sf.ThirdMedium(mu=MU, K=args.medium_K, gamma=args.gamma, alpha_r=args.alpha_r,
+                            regularization=args.regularization, beta=args.beta)
+    problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
+                                comm=comm, **common.discretization(args))
+    problem.fix(box.marker("clamp"), name="clamp")
+    tip = at_point(box.points["load"])
+    uy, uz = (args.scale * u for u in CONTACTS[args.contact])
+    problem.prescribe(tip, ux=0.0, uy=uy, uz=uz, name="load")
+    observers = {f"tip_u{c}": common.displacement_observer(problem, tip, i) for i, c in enumerate("xyz")}
+    return problem, observers
+
+
+def plot_curves(out, title: str) -> None:
+    """curves.png: the corner's reaction R_z and the smallest gap against the load factor."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from dolfinx_sfvem.figure_output import save_png
+
+    rows = common.read_load_path(out / "load_path.csv")
+    if not rows:
+        return
+    load = [r["load"] for r in rows]
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.4))
+    for c in "xyz":
+        ax1.plot(load, [r[f"load_R{c}"] for r in rows], "o-", ms=3, label=f"R_{c}")
+    ax1.set(xlabel="load factor", ylabel="reaction at the moved corner")
+    ax1.legend(fontsize=8)
+    gaps = [r.get("gap", np.nan) for r in rows]
+    ax2.plot(load, gaps, "o-", ms=3)
+    ax2.set(xlabel="load factor", ylabel="smallest gap between the solids")
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    save_png(fig, out / "curves.png", dpi=90)
+
+
+def main(argv: typing.Sequence[str] | None = None) -> int:
+    """Parse ``argv`` (default ``sys.argv[1:]``), build and solve; returns the exit code (0 or 1)."""
+    args = common.parse_args(make_parser(), argv)
+    problem, observers = build(args)
+    code = common.run(problem, args, observers)
+    if problem.comm.rank == 0:
+        plot_curves(args.out, f"cbox3d: {args.cell}, {args.contact} contact, {args.regularization}, "
+                              f"gamma = {args.gamma:g}, alpha_r = {args.alpha_r:g}")
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(common.exit_code(main))

@@ -1,0 +1,222 @@
+"""3D Hertz: a stiff sphere pressed into an elastic block across a thin third-medium layer.
+
+Problem
+-------
+Quarter model (symmetry planes x = 0 and y = 0) of Xu, Xue & Wriggers (JMPS 2026), as dolfiny's
+``demo/tmc/3D/Hertz_Wriggers_3D.py``: a sphere of radius R = 1, ``--stiffness`` (100) times
+stiffer than the block, hangs ``--gap`` (0.1) above the block [0, 2] x [0, 2] x [0, 1]; the medium
+fills the box above the block around the sphere. The sphere's flat top is pushed down by
+u_z = -(gap + ``--indent``) x load factor: the gap closes through the medium, then the sphere
+indents the block.
+
+Geometry and mesh (``sf.meshes.hertz3d``)
+-----------------------------------------
+gmsh P2 tetrahedra of size ``--h`` within ``--fine-radius`` of the contact point, growing to
+``--h-far`` away from it. Block bottom z = 0 clamped, u_x = 0 on x = 0, u_y = 0 on y = 0, u_z
+prescribed on the sphere's top (boundary condition ``load``).
+
+Parameters
+----------
+Block K = 5/4, mu = 5/14 (E = 0.978, nu = 0.370); sphere the same times ``--stiffness``.
+Medium: mu = 5/14, K = 5/4 scaled by ``--gamma``, ``--alpha-r``, ``--regularization``.
+
+Against Hertz
+-------------
+``exact.hertz_sphere``: with F = 4 x the quarter's contact force (the medium's force on the block),
+a = (3 F R / (4 E*))^(1/3), p0 = 3 F / (2 pi a^2), delta = a^2 / R, 1/E* = (1 - nu^2)/E (1 + 1/stiffness).
+The contact radius is measured twice from the contact pressure field: ``a_zone`` from the
+deformed area A of the quarter contact zone (pressure above 1 % of the peak), a = sqrt(4 A / pi),
+and ``a_p = sqrt(3 F / (2 pi p_max))``, the radius Hertz's profile would have with the measured
+peak; ``p_max`` against p0. The indentation is the approach of the sphere's top and the block's
+bottom less the closure of the gap, delta = -u_z(top) - (gap - smallest gap).
+
+What it prints and writes
+-------------------------
+Per step the load factor, Newton iterations, reactions; at the end the last contact row. In
+``--out``, besides summary.json, load_path.csv, displacement.xdmf and the 3D pictures of the last
+state (``final-deformed.png``, ``final-clip.png``, ``final-pressure.png``): hertz3d.md (per
+converged step in contact: F, delta, a_zone, a_p, Hertz's a, p_max, Hertz's p0), pressure.csv
+(radius and pressure of the block's top nodes at the last state), hertz3d.png (force against
+indentation with Hertz's curve; pressure against radius with Hertz's profile).
+
+Commands
+--------
+::
+
+    mpirun -n 2 python3 demos/hertz3d.py --out out/hertz3d
+    mpirun -n 2 python3 demos/hertz3d.py --h 0.05 --out out/hertz3d-h0.05
+
+Measured
+--------
+2026-11-26, 1 rank, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md): h = 0.1 (11,607
+unknowns), gamma = 1e-6: the gap closes in 1-2 Newton iterations per step, contact at load 0.7 in 17
+(F = 4.31e-4, delta 0.00503 against Hertz's 0.00437); every step beyond inverted a medium cell
+(steps to 0.8, 0.75, 0.725): gamma = 1e-6 stalls just after contact, as in 2D. At
+h = 0.1 the contact radius (Hertz 0.066) is below one element: a_zone 0.092, p_max 0.017 against
+Hertz's 0.047. The 3 % goal needs h = 0.05 (37,401 unknowns) at an indentation of ~0.04; not run.
+Compiling the three regions' P2 tangent took 46 min on the loaded machine.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import typing
+
+import numpy as np
+
+import dolfinx_sfvem as sf
+from dolfinx_sfvem import exact
+from dolfinx_sfvem.benchmarks3d import HERTZ3D_H, HERTZ3D_R, SPHERE
+from dolfinx_sfvem.figure_output import save_png
+from dolfinx_sfvem.run_summary import RunSummary, read_summary
+
+import _common as common
+
+K, MU = 5 / 4, 5 / 14
+E = 9 * K * MU / (3 * K + MU)
+NU = (3 * K - 2 * MU) / (2 * (3 * K + MU))
+#: a contact row needs the smallest gap below this fraction of the initial gap
+TOUCHING = 0.05
+
+
+def make_parser() -> argparse.ArgumentParser:
+    """The shared demo options with the Hertz defaults, plus the geometry and mesh options."""
+    p = common.parser("hertz3d", __doc__, steps=10, meshes=(1,), h=0.1, gamma=1e-6, alpha_r=1.0,
+                      regularization="rotation")
+    p.set_defaults(method="fem", fixed_increments=True)
+    p.add_argument("--gap", type=common.positive_float, default=0.1, help="initial gap (default %(default)s)")
+    p.add_argument("--indent", type=common.positive_float, default=0.05,
+                   help="sphere top displacement after the gap has closed (default %(default)s)")
+    p.add_argument("--stiffness", type=common.positive_float, default=100.0,
+                   help="sphere moduli / block moduli (default %(default)s)")
+    p.add_argument("--h-far", type=common.positive_float, default=0.4, help="mesh size away from the contact")
+    p.add_argument("--fine-radius", type=common.positive_float, default=0.5,
+                   help="radius about the contact point meshed with size --h (default %(default)s)")
+    return p
+
+
+def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
+    """The quarter Hertz model of the command line and the observer ``top_uz``."""
+    if args.method != "fem":
+        raise ValueError("hertz3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
+    bench = sf.meshes.hertz3d(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius)
+    s = args.stiffness
+    medium = sf.ThirdMedium(mu=MU, K=K, gamma=args.gamma, alpha_r=args.alpha_r,
+                            regularization=args.regularization, beta=args.beta)
+    problem = sf.ContactProblem(bench.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
+                                             SPHERE: sf.Hyperelastic(K=s * K, mu=s * MU),
+                                             sf.meshes.MEDIUM: medium}, **common.discretization(args))
+    problem.fix(bench.marker("bottom"), name="bottom")
+    problem.fix(bench.marker("symmetry_x"), components="x", name="symmetry_x")
+    problem.fix(bench.marker("symmetry_y"), components="y", name="symmetry_y")
+    top = bench.marker("sphere_top")
+    problem.prescribe(top, tags=[SPHERE], uz=-(args.gap + args.indent), name="load")
+    problem.parameters["geometry"] = {"R": HERTZ3D_R, "gap": args.gap, "h_far": args.h_far,
+                                      "fine_radius": args.fine_radius, "E": E, "nu": NU}
+    point = np.array([0.0, 0.0, HERTZ3D_H + args.gap + HERTZ3D_R])[:, None]
+    at_axis_top = lambda x: np.linalg.norm(x - point, axis=0) <= 1e-10       # noqa: E731
+    return problem, {"top_uz": common.displacement_observer(problem, at_axis_top, 2)}
+
+
+# --------------------------------------------------------------------------- against Hertz
+def hertz(F: float, stiffness: float) -> exact.HertzContact:
+    """Hertz's answer for the whole sphere's force F (block E, nu; sphere stiffness x E)."""
+    return exact.hertz_sphere(F, HERTZ3D_R, E, NU, stiffness * E, NU)
+
+
+def block_body(pressure: sf.ContactPressure) -> int:
+    """The body index of the block: the body of the boundary node nearest the origin."""
+    return int(pressure.body[np.argmin(np.linalg.norm(pressure.X, axis=1))])
+
+
+def hertz_rows(summary: RunSummary, block: int, gap: float, stiffness: float) -> list[dict[str, float]]:
+    """Per converged step in contact (the block's smallest gap below TOUCHING x gap): load, F
+    (whole sphere), delta, a_zone, a_p, p_max and Hertz's a, p0 and delta at that F."""
+    rows = []
+    for s in summary.converged_steps:
+        c = next((c for c in s.contact if c["body"] == block), None)
+        if c is None or c["gap"] is None or c["gap"] > TOUCHING * gap or -c["force"][2] <= 0.0:
+            continue
+        F = -4 * c["force"][2]
+        h = hertz(F, stiffness)
+        rows.append({"load": s.load, "F": F, "delta": -s.extra["top_uz"] - (gap - c["gap"]),
+                     "a_zone": math.sqrt(4 * c["zone_length"] / math.pi),
+                     "a_p": math.sqrt(3 * F / (2 * math.pi * c["max_pressure"])),
+                     "p_max": c["max_pressure"], "a_H": h.a, "p0_H": h.p0, "delta_H": h.delta,
+                     "gap": c["gap"], "F_reaction": -4 * s.reaction["load"][2]})
+    return rows
+
+
+def write_table(rows: list[dict[str, float]], path, title: str) -> None:
+    """The rows of :func:`hertz_rows` as a Markdown table."""
+    lines = [f"# {title}", "", "| load | F | delta | delta Hertz | a_zone | a_p | a Hertz | a_zone/a_H | a_p/a_H "
+             "| p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 14]
+    for r in rows:
+        lines.append(f"| {r['load']:.4g} | {r['F']:.4g} | {r['delta']:.4f} | {r['delta_H']:.4f} | {r['a_zone']:.4f} "
+                     f"| {r['a_p']:.4f} | {r['a_H']:.4f} | {r['a_zone'] / r['a_H']:.3f} | {r['a_p'] / r['a_H']:.3f} "
+                     f"| {r['p_max']:.4g} | {r['p0_H']:.4g} | {r['p_max'] / r['p0_H']:.3f} | {r['gap']:.2e} "
+                     f"| {r['F'] / r['F_reaction']:.4f} |")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def block_top_pressure(pressure: sf.ContactPressure, block: int) -> np.ndarray:
+    """(n, 2) deformed radius and pressure of the block's top nodes facing the sphere, by radius."""
+    on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
+    rp = np.stack([np.hypot(pressure.x[on_top, 0], pressure.x[on_top, 1]), pressure.pressure[on_top]], axis=1)
+    return rp[np.argsort(rp[:, 0])]
+
+
+def plot(rp: np.ndarray, rows: list[dict[str, float]], stiffness: float, path, title: str) -> None:
+    """Force against indentation with Hertz's curve; the last pressure against radius with Hertz's."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.6))
+    F = np.array([r["F"] for r in rows])
+    ax1.plot([r["delta"] for r in rows], F, "o", ms=4, label="third medium")
+    Fs = np.linspace(0.0, 1.2 * F.max(), 100)[1:]
+    ax1.plot([hertz(f, stiffness).delta for f in Fs], Fs, "k--", label="Hertz")
+    ax1.set(xlabel="indentation delta", ylabel="force F (whole sphere)")
+    ax1.legend(fontsize=8)
+    h = hertz(rows[-1]["F"], stiffness)
+    r = np.linspace(0.0, 1.5 * h.a, 200)
+    ax2.plot(rp[:, 0], rp[:, 1], "o", ms=3, label="medium on block")
+    ax2.plot(r, h.p0 * np.sqrt(np.clip(1 - (r / h.a) ** 2, 0.0, None)), "k--", label=f"Hertz, F = {rows[-1]['F']:.3g}")
+    ax2.set(xlabel="radius r", ylabel="pressure p", xlim=(0.0, 2 * h.a))
+    ax2.legend(fontsize=8)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    save_png(fig, path, dpi=90)
+
+
+def main(argv: typing.Sequence[str] | None = None) -> int:
+    """Parse ``argv`` (default ``sys.argv[1:]``), build, solve and compare with Hertz; the exit code."""
+    args = common.parse_args(make_parser(), argv)
+    problem, observers = build(args)
+    title = (f"hertz3d: P2 tetrahedra, h = {args.h:g}, gamma = {args.gamma:g}, {args.regularization} "
+             f"alpha_r = {args.alpha_r:g}, indent {args.indent:g}")
+    code = common.run(problem, args, observers)
+    pressure = problem.contact_pressure()          # the last converged state (collective)
+    if problem.comm.rank == 0:
+        block = block_body(pressure)
+        rows = hertz_rows(read_summary(args.out), block, args.gap, args.stiffness)
+        write_table(rows, args.out / "hertz3d.md", title)
+        rp = block_top_pressure(pressure, block)
+        with open(args.out / "pressure.csv", "w", newline="") as f:
+            csv.writer(f).writerows([["r", "p"], *rp.tolist()])
+        if rows:
+            plot(rp, rows, args.stiffness, args.out / "hertz3d.png", title)
+            r = rows[-1]
+            print(f"final: load {r['load']:.4g}, F {r['F']:.5g}, delta {r['delta']:.4f} (Hertz {r['delta_H']:.4f}), "
+                  f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f} (Hertz {r['a_H']:.4f}), "
+                  f"p_max {r['p_max']:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}", flush=True)
+        else:
+            print("final: no contact reached", flush=True)
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(common.exit_code(main))

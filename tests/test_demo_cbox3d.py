@@ -1,0 +1,44 @@
+"""The 3D C-box demo (demos/cbox3d.py) on its coarsest grid (20 x 1 x 7 cells, P2 tetrahedra: one
+compiled form for the whole file) at a small share of the point-contact load: equilibrium of the
+reactions, 1 rank against 2, and the refusal of the SFVEM in 3D."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import cbox3d
+
+#: the coarsest grid that resolves the C's wall (grid lines on x = 0.1, z = 0.1 and z = 0.6)
+COARSE = ["--n", "20", "1", "7", "--cell", "tetrahedron", "--scale", "0.05", "--steps", "1", "--quiet"]
+
+
+def reactions(comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, list[float]]:
+    """The reactions after the coarse run on ``comm`` (no output directory)."""
+    args = cbox3d.common.parse_args(cbox3d.make_parser(), COARSE)
+    problem, _ = cbox3d.build(args, comm)
+    assert problem.solve(control=cbox3d.common.load_stepping(args)).converged
+    return problem.reactions()
+
+
+def test_reactions_balance():
+    """No other load acts: the clamp holds exactly what the corner is pulled with (to Newton's
+    tolerance); the corner is pushed down, so the internal force there points down."""
+    r = reactions()
+    load, clamp = np.array(r["load"]), np.array(r["clamp"])
+    assert load[2] < 0.0                   # the internal force of the structure pushed down
+    assert np.allclose(load + clamp, 0.0, atol=1e-6 * np.linalg.norm(load))
+
+
+def test_sfvem_refused():
+    """The SFVEM on polyhedra is not there yet: --method vem is invalid input (exit code 2)."""
+    assert cbox3d.common.exit_code(cbox3d.main, ["--method", "vem", "--quiet"]) == 2
+
+
+@pytest.mark.mpi
+def test_same_reactions_on_one_and_two_ranks():
+    """The coarse run on all ranks and on each rank alone: the reactions agree to 1e-9."""
+    world = reactions(MPI.COMM_WORLD)
+    alone = reactions(MPI.COMM_SELF)
+    for name in alone:
+        assert np.allclose(world[name], alone[name], rtol=1e-9, atol=1e-12 * np.abs(alone[name]).max())

@@ -1,0 +1,48 @@
+"""The 3D Hertz demo (demos/hertz3d.py) on a coarse mesh: Hertz's formulas, and a short run into
+contact: equilibrium of the forces and the bodies kept apart. (Hertz's radius and peak are not
+asserted: at the meshes a test can afford the contact radius is below one element,
+docs/notes/2026-11-26-demos3d.md.)"""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+import hertz3d
+from dolfinx_sfvem.run_summary import read_summary
+
+#: coarse mesh (5.4 k unknowns, h = 0.15 within 0.4 of the contact point); the sphere closes the gap
+#: 0.1 and indents the block by 0.005 in 5 steps
+COARSE = ["--h", "0.15", "--h-far", "0.5", "--fine-radius", "0.4", "--steps", "5", "--indent", "0.005", "--quiet"]
+
+
+def test_hertz_formulas():
+    """K = 5/4, mu = 5/14 give E and nu of Eq. 2; Hertz's force F = 4/3 E* sqrt(R) delta^(3/2)."""
+    assert hertz3d.E == pytest.approx(9 * 1.25 * (5 / 14) / (3.75 + 5 / 14))
+    h = hertz3d.hertz(0.02, 100.0)
+    E_star = 1 / ((1 - hertz3d.NU ** 2) / hertz3d.E * (1 + 1 / 100))
+    assert 0.02 == pytest.approx(4 / 3 * E_star * math.sqrt(h.delta) ** 3, rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def coarse_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("hertz3d")
+    code = hertz3d.common.exit_code(hertz3d.main, [*COARSE, "--out", str(out)])
+    return code, out
+
+
+def test_coarse_run_into_contact(coarse_run):
+    code, out = coarse_run
+    assert code == 0
+    for name in ("hertz3d.md", "hertz3d.png", "pressure.csv", "summary.json", "final-pressure.png"):
+        assert (out / name).is_file(), name
+    summary = read_summary(out)
+    last = summary.final_step
+    # equilibrium: the medium's force on the block is what pushes the sphere down, and the block's
+    # bottom and the symmetry planes hold all of it
+    block = next(c for c in last.contact if c["region"] == hertz3d.sf.meshes.SOLID)
+    F_quarter = -block["force"][2]
+    assert F_quarter == pytest.approx(-last.reaction["load"][2], rel=2e-3)
+    assert sum(r[2] for r in last.reaction.values()) == pytest.approx(0.0, abs=1e-6 * F_quarter)
+    assert min(c["gap"] for s in summary.converged_steps for c in s.contact) > 0.0
+    assert F_quarter > 0.0 and block["zone_length"] > 0.0 and block["max_pressure"] > 0.0
