@@ -190,7 +190,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     if medium.n_cells:
         plotter.add_mesh(medium.clip(normal=normal, origin=origin, crinkle=False), style="wireframe",
                          color="#3060b0", opacity=0.5, line_width=1, label="third medium")
-    plotter.add_legend(bcolor="white", face="rectangle", size=(0.24, 0.12), loc="lower left")
+    plotter.add_legend(bcolor="white", face="rectangle", size=(0.24, 0.12), loc="lower right")
     plotter.add_title(f"{prefix}: cut through the contact, normal {_vector(normal)}", font_size=14)
     plotter.camera_position = [tuple(origin + 4.0 * normal * _size(x)), tuple(origin), _up(normal)]
     plotter.reset_camera()
