@@ -78,6 +78,10 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
         ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
     ],
+    "thick_sphere": [
+        ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "
+                                         "change) against the unknowns, four cases: O(h^2), set by the flat faces"),
+    ],
 }
 
 #: the API reference's groups: (heading, what it holds, names of dolfinx_sfvem.__all__)
