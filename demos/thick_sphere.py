@@ -265,8 +265,8 @@ def write_study(args: argparse.Namespace, rows: list[dict]) -> None:
     table = study_table(rows)
     lines = [f"# Thick sphere (1/8, P2 tetrahedra): refinement study (p = {args.p:g}, "
              f"small p = {SMALL * args.p:.3g}, cavity gamma = {args.gamma:g})", "",
-             "Errors relative to the exact u_r(a) and conjugate; observed orders between consecutive meshes in the mean "
-             "cell size h ~ unknowns^(-1/3).", ""]
+             "Errors relative to the exact u_r(a) and conjugate; observed orders between consecutive meshes in the "
+             "mean cell size h ~ unknowns^(-1/3).", ""]
     lines += markdown.table(HEADER, table)
     (args.out / "thick-sphere.md").write_text("\n".join(lines) + "\n")
     with open(args.out / "thick-sphere.csv", "w", newline="") as f:

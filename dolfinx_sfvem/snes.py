@@ -254,8 +254,9 @@ def node_spacing(disc: Discretization) -> float:
     """
     X = disc.x_nodes[:disc.n_owned_nodes]
     dim = disc.x_nodes.shape[1]
-    low = disc.comm.allreduce(X.min(axis=0, initial=np.inf), op=MPI.MIN)
-    high = disc.comm.allreduce(X.max(axis=0, initial=-np.inf), op=MPI.MAX)
+    low, high = X.min(axis=0, initial=np.inf), X.max(axis=0, initial=-np.inf)
+    disc.comm.Allreduce(MPI.IN_PLACE, low, op=MPI.MIN)      # elementwise (the pickled allreduce of arrays
+    disc.comm.Allreduce(MPI.IN_PLACE, high, op=MPI.MAX)     # compares them as wholes and fails on 2 ranks)
     n = disc.comm.allreduce(disc.n_owned_nodes, op=MPI.SUM)
     extent = (high - low)[high > low]
     return float(np.prod(extent) / n) ** (1.0 / extent.size) if extent.size else 0.0
