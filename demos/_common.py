@@ -348,12 +348,17 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
               argv: typing.Sequence[str] | None = None) -> int:
     """Run a demo's ``main(argv)``; expected failures become a message on stderr and exit code 2,
     any other exception its traceback and :func:`crash_message` on stderr and exit code
-    :data:`CRASHED` (in parallel through ``MPI_Abort``: every rank ends)."""
+    :data:`CRASHED`. In parallel both end every rank through ``MPI_Abort`` (an error raised on
+    one rank alone would leave the others waiting in a collective), and each rank that raised
+    names itself."""
+    comm = MPI.COMM_WORLD
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
-        if MPI.COMM_WORLD.rank == 0:
-            print(f"error: {err}", file=sys.stderr, flush=True)
+        rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
+        print(f"{rank}error: {err}", file=sys.stderr, flush=True)
+        if comm.size > 1:
+            comm.Abort(2)
         return 2
     except Exception as err:
         traceback.print_exc()

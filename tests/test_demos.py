@@ -136,7 +136,11 @@ def test_an_unexpected_error_ends_with_what_and_where(capsys):
     assert err[-1] == f"error: KeyError in {__file__}:{main.__code__.co_firstlineno + 1} (main): 'tip'"
 
 
-def test_an_error_on_one_rank_ends_every_rank(tmp_path):
+@pytest.mark.parametrize("error, message", [
+    ("RuntimeError", "error: RuntimeError in {script}:8 (main): only here"),
+    ("ValueError", "error: only here"),      # an expected failure, raised on one rank alone
+])
+def test_an_error_on_one_rank_ends_every_rank(tmp_path, error, message):
     """A rank that raises while the other waits in a collective call ends the whole run (no hang)
     with a non-zero exit code and the message of that rank."""
     script = tmp_path / "one_rank_fails.py"
@@ -147,7 +151,7 @@ import _common
 
 def main(argv):
     if MPI.COMM_WORLD.rank == 1:
-        raise RuntimeError("only here")
+        raise {error}("only here")
     MPI.COMM_WORLD.barrier()
     return 0
 
@@ -157,7 +161,7 @@ sys.exit(_common.exit_code(main))
     # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
     proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=dict(os.environ))
     assert proc.returncode != 0
-    assert f"rank 1 of 2: error: RuntimeError in {script}:8 (main): only here" in proc.stderr, proc.stdout + proc.stderr
+    assert "rank 1 of 2: " + message.format(script=script) in proc.stderr, proc.stdout + proc.stderr
 
 
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
