@@ -92,7 +92,7 @@ class ContinuedStepSolver(StepSolver):
         super().__init__(*args, **kwargs)
         self.continuation = continuation
 
-    def solve_at(self, load: float) -> NewtonResult:
+    def solve_at(self, load: float, energy_merit: bool = False) -> NewtonResult:
         self.continuation.set_load(load)
         self.newton.forget_force()          # a force kept from another gamma is not this one's
-        return super().solve_at(load)
+        return super().solve_at(load, energy_merit)

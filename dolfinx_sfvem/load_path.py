@@ -391,8 +391,8 @@ class _Relaxation:
                                  solver.newton.linear_solver)
         self.g = solver.equilibrium.load * solver.final
 
-    def solve_at(self, s: float) -> NewtonResult:
-        return self.newton.solve(self.x, self.g, 1.0 - s)
+    def solve_at(self, s: float, energy_merit: bool = False) -> NewtonResult:
+        return self.newton.solve(self.x, self.g, 1.0 - s, energy_merit)
 
     def destroy(self) -> None:
         self.newton.destroy()
