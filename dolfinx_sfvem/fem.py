@@ -545,7 +545,9 @@ class LagrangeDiscretization(Discretization):
         if tags is not None:
             cells = np.flatnonzero(np.isin(self.cell_tag, np.fromiter(tags, dtype=np.int64))).astype(np.int32)
             in_tags = np.zeros_like(selected)
-            in_tags[dolfinx.fem.locate_dofs_topological(self.V, self.mesh.topology.dim, cells)] = True
+            tdim = self.mesh.topology.dim
+            self.mesh.topology.create_connectivity(tdim, tdim)      # DOLFINx 0.11 asks for it first
+            in_tags[dolfinx.fem.locate_dofs_topological(self.V, tdim, cells)] = True
             selected &= in_tags
         return np.flatnonzero(selected)
 
