@@ -17,6 +17,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.adaptivity import smallest_J
 from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.run_summary import read_summary
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -138,7 +139,7 @@ def test_study_script_reduced_run(tmp_path):
     page = tmp_path / "study.md"
     proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
                            "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     runs = json.loads((tmp_path / "study.json").read_text())
     assert [r["label"] for r in runs] == ["uniform h = 0.1", "h = 0.1, adaptive"]
     uniform, adaptive = runs
@@ -152,7 +153,7 @@ def test_study_script_reduced_run(tmp_path):
     (tmp_path / "study.json").write_text(json.dumps([uniform]))
     proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
                            "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     again = json.loads((tmp_path / "study.json").read_text())
     assert again[0] == uniform and again[1]["label"] == "h = 0.1, adaptive" and again[1]["dofs"] == adaptive["dofs"]
 

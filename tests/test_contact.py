@@ -13,6 +13,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.contact import OVERLAP_TOLERANCE
 from dolfinx_sfvem.injectivity import folded_elements
 from dolfinx_sfvem.problem import Result
+from process_report import report
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM, OTHER = 1, 2, 3
@@ -183,7 +184,7 @@ def run_cbox(*args, out):
 def test_cbox_gap_is_recorded_per_step(tmp_path):
     proc = run_cbox("--uy", "-0.2", "--steps", "4", "--fixed-increments", "--pressure-at", "0.5", "0.6",
                     out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = json.loads((tmp_path / "summary.json").read_text())
     gaps = [s["gap"]["value"] for s in summary["steps"]]
     assert gaps[0] < 0.3 and all(np.diff(gaps) < 0) and gaps[-1] > 0     # the beams approach

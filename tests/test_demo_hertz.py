@@ -13,6 +13,7 @@ import hertz
 import pytest
 
 from dolfinx_sfvem.run_summary import read_summary
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -41,7 +42,7 @@ def coarse_run(tmp_path_factory):
 
 def test_hertz_demo_coarse_run_matches_hertz(coarse_run):
     proc, out = coarse_run
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "converged: yes" in proc.stdout
     for name in ("hertz.md", "hertz.png", "pressure.csv", "summary.json"):
         assert (out / name).is_file(), name

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 OUTPUTS = ("summary.json", "load_path.csv", "displacement.xdmf", "displacement.h5",
@@ -29,7 +30,7 @@ def run_demo(name: str, *args: str, out: pathlib.Path) -> subprocess.CompletedPr
 def check_run(proc: subprocess.CompletedProcess, out: pathlib.Path, n_steps: int, reactions: set[str],
               extra: tuple[str, ...]) -> tuple[RunSummary, list[Step], list[dict]]:
     """Common checks of a completed reduced run; returns summary, converged steps, CSV rows."""
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "Traceback" not in proc.stderr
     assert "converged: yes" in proc.stdout.splitlines()[-1]
     content = json.loads((out / "summary.json").read_text())

@@ -14,6 +14,7 @@ import pytest
 
 from dolfinx_sfvem import mpi_launcher
 from dolfinx_sfvem.run_summary import read_summary
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -34,7 +35,7 @@ def csv_rows(path: pathlib.Path) -> list[dict]:
 
 def test_cbox_outputs(tmp_path):
     proc = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "converged: yes" in proc.stdout.splitlines()[-1]
 
     content = json.loads((tmp_path / "summary.json").read_text())
@@ -91,7 +92,7 @@ def test_petsc_options_reach_snes(tmp_path):
     code 1 and keeps its (failed) history."""
     proc = run_demo("cbox", "--uy", "-1", "--steps", "2", "--h", "0.1", "--quiet", "-tmc_snes_max_it", "1",
                     out=tmp_path)
-    assert proc.returncode == 1, proc.stderr
+    assert proc.returncode == 1, report(proc)
     assert "Traceback" not in proc.stderr
     assert "converged: no" in proc.stdout.splitlines()[-1]
 
@@ -166,7 +167,7 @@ sys.exit(_common.exit_code(main))
 
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
     proc = run_demo("cbox", *SMALL, "--method", "fem", "--fem-jump-penalty", "40", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.converged and summary.method == "fem"
     assert summary.discretization["jump_penalty"] == 40.0 and summary.parameters["fem_jump_penalty"] == 40.0
@@ -176,7 +177,7 @@ def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
 def test_cbox_fem_cells(tmp_path, cells, cell_type):
     """The C-box FEM is Q2 on cbox_grid by default, P2 on a matched triangulation on request."""
     proc = run_demo("cbox", *SMALL, "--method", "fem", *(["--fem-cells", cells] if cells else []), out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.converged and summary.discretization["cell_type"] == cell_type
     if cells is None:                     # h = 0.1: 11 x 5 rectangles, (2 * 11 + 1) (2 * 5 + 1) nodes
@@ -188,13 +189,13 @@ def test_gamma_start_reaches_the_path(tmp_path):
     asked gamma and the schedule; without the option nothing of it is recorded (earlier runs'
     parameters unchanged)."""
     proc = run_demo("cbox", *SMALL, "--method", "vem", "--gamma-start", "1e-3", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.parameters["gamma_continuation"]["gamma_start"] == 1e-3
     assert summary.parameters["materials"]["2"]["gamma"] == 1e-5
     for step in summary.converged_steps:
         assert step.extra["gamma"] == pytest.approx(1e-3 ** (1 - step.load) * 1e-5 ** step.load, rel=1e-12)
     plain = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path / "plain")
-    assert plain.returncode == 0, plain.stderr
+    assert plain.returncode == 0, report(plain)
     params = read_summary(tmp_path / "plain").parameters
     assert "gamma_start" not in params and "gamma_continuation" not in params

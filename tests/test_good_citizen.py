@@ -33,6 +33,7 @@ import numpy as np
 import pytest
 import ufl
 from petsc4py import PETSc
+from process_report import report
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -142,7 +143,7 @@ def test_a_cold_compiler_cache_prints_nothing(tmp_path):
     cmd = [sys.executable, str(ROOT / "demos" / "cbox.py"), "--method", "fem", "--h", "0.1", "--steps", "1",
            "--uy", "-0.05", "--out", str(tmp_path / "out")]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert any((tmp_path / "cache").rglob("*.c")), "the run compiled nothing: the cache was not cold"
     output = proc.stdout + proc.stderr
     assert "load reached 1 of 1" in output
