@@ -13,6 +13,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.contact import OVERLAP_TOLERANCE
 from dolfinx_sfvem.injectivity import folded_elements
 from dolfinx_sfvem.problem import Result
+from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -178,7 +179,8 @@ def test_penetrating_run_never_ends_as_converged():
 
 def run_cbox(*args, out):
     return subprocess.run([sys.executable, str(ROOT / "demos" / "cbox.py"), "--h", "0.1", "--quiet", "--out", str(out),
-                           *args], capture_output=True, text=True, cwd=ROOT, timeout=600)
+                           *args], capture_output=True, text=True, cwd=ROOT, timeout=600,
+                          env=job_environment())
 
 
 def test_cbox_gap_is_recorded_per_step(tmp_path):

@@ -12,6 +12,7 @@ import sys
 import pytest
 
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 
 DEMO = pathlib.Path(__file__).resolve().parents[1] / "demos" / "box_self_contact.py"
@@ -23,7 +24,7 @@ G0 = 0.3
 
 def run_demo(*args: str, out: pathlib.Path) -> subprocess.CompletedProcess:
     cmd = [sys.executable, str(DEMO), *args, "--out", str(out)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def test_box_single_run(tmp_path):

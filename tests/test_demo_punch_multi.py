@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
@@ -24,7 +25,7 @@ OUTPUTS = ("summary.json", "load_path.csv", "displacement.xdmf", "displacement.h
 def run_demo(name: str, *args: str, out: pathlib.Path) -> subprocess.CompletedProcess:
     """Run ``demos/<name>.py`` serially with the given arguments and ``--out out``."""
     cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args, "--out", str(out)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def check_run(proc: subprocess.CompletedProcess, out: pathlib.Path, n_steps: int, reactions: set[str],

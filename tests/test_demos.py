@@ -14,6 +14,7 @@ import pytest
 
 from dolfinx_sfvem import mpi_launcher
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
@@ -25,7 +26,7 @@ SMALL = ["--uy", "-0.1", "--steps", "3", "--h", "0.1", "--quiet"]
 def run_demo(name: str, *args: str, out: pathlib.Path | None = None) -> subprocess.CompletedProcess:
     """Run ``demos/<name>.py`` serially with the given arguments (and ``--out out``)."""
     cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args] + (["--out", str(out)] if out else [])
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def csv_rows(path: pathlib.Path) -> list[dict]:
@@ -160,7 +161,7 @@ sys.exit(_common.exit_code(main))
 """)
     command = [*mpi_launcher.command(2), sys.executable, str(script)]
     # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
-    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=dict(os.environ))
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=job_environment())
     assert proc.returncode != 0
     assert "rank 1 of 2: " + message.format(script=script) in proc.stderr, proc.stdout + proc.stderr
 

@@ -15,6 +15,7 @@ import pytest
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem.mpi_launcher import job_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM = 1, 2
@@ -207,7 +208,7 @@ def fixed(steps: int) -> sf.LoadStepping:
 
 def _demo(args, **kw):
     return subprocess.Popen([sys.executable, str(ROOT / "demos" / "cbox.py"), *args], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=job_environment(), **kw)
 
 
 def test_sigterm_keeps_converged_steps_and_resume_finishes(tmp_path):
