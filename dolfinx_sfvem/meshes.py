@@ -16,8 +16,10 @@ from .meshing.gmsh_io import from_gmsh, gmsh_session, model_cells, region_names,
 from .meshing.gmsh3d import from_gmsh_3d
 from .meshing.grids import quad_rectangle, quads_with_hanging_nodes
 from .meshing.hexahedra import box_grid, extrude, split_hexahedra
+from .meshing.octree import OctreeMesh, octree_box
 from .meshing.npz import NPZ_FORMAT, read_polygons, write_polygons
 from .meshing.polygon_sets import PolygonSet, glue
+from .polyhedron_mesh import PolyhedronMesh
 
 __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_grid", "box", "punch", "multi_object",
            "thick_cylinder", "shallow_arch", "BASE_LAYER", "FIRST_CHAMBER", "PneuNet", "pneumatic_actuator",
@@ -25,4 +27,5 @@ __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_g
            "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
            "write_polygons", "NPZ_FORMAT", "describe", "t_junctions",
            "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "thick_sphere",
-           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d"]
+           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d",
+           "PolyhedronMesh", "OctreeMesh", "octree_box"]
