@@ -48,7 +48,7 @@ from .cell_mesh import CellMesh, facet_normals, reference_facets
 from scipy.spatial import cKDTree
 
 from .polygon import RTOL, point_location, self_intersection
-from .polygon_mesh import concatenated_ranges
+from .polygon_mesh import as_points, concatenated_ranges, segment_owner
 
 #: default relative planarity tolerance of a face (of its diameter)
 PLANAR_RTOL = 1e-8
@@ -73,7 +73,7 @@ def _distance(points, a, b):
 
 
 @numba.njit(cache=True)
-def _plane_coordinates(points, vertices, origin, normal):
+def plane_coordinates(points, vertices, origin, normal):
     """Coordinates (n, 2) of the points ``vertices`` in an orthonormal basis (u, v) of the plane
     through ``origin`` normal to the unit vector ``normal``, u x v = normal (counter-clockwise
     seen from the side the normal points to)."""
@@ -141,7 +141,7 @@ def _face_geometry(points, offsets, vertices, tol, planar_rtol):
                 worst, k = dist, i - s
         if worst > planar_rtol * diam + tol:
             return area_vectors, centroids, _NOT_PLANAR, f, k
-        i, _ = self_intersection(_plane_coordinates(points, vertices[s:e], centroids[f], area_vectors[f] / area), tol)
+        i, _ = self_intersection(plane_coordinates(points, vertices[s:e], centroids[f], area_vectors[f] / area), tol)
         if i >= 0:
             return area_vectors, centroids, _SELF_INTERSECTING, f, i
     return area_vectors, centroids, _OK, -1, 0
@@ -241,7 +241,7 @@ def _points_on_faces(points, offsets, vertices, area_vectors, centroids, point, 
         normal = area_vectors[f] / np.sqrt((area_vectors[f] ** 2).sum())
         if abs((points[p] - centroids[f]) @ normal) > tol:
             continue
-        xy = _plane_coordinates(points, np.append(verts, p), centroids[f], normal)
+        xy = plane_coordinates(points, np.append(verts, p), centroids[f], normal)
         out[k] = point_location(xy[-1], xy[:-1], tol) >= 0
     return out
 
@@ -288,28 +288,12 @@ def _as_index_csr(offsets: npt.ArrayLike, values: npt.ArrayLike, n_range: int, w
     return offsets, values
 
 
-def _as_points(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    x = np.asarray(points, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] != 3:
-        raise ValueError(f"points must have shape (n, 3), got {x.shape}")
-    finite = np.isfinite(x).all(axis=1)
-    if not finite.all():
-        k = int(np.argmin(finite))
-        raise ValueError(f"point {k} is not finite: {x[k]}")
-    return np.ascontiguousarray(x)
-
-
-def _owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Segment of every entry of a CSR array with these offsets."""
-    return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
-
-
 def _vertex_sets(offsets: npt.NDArray[np.int64], vertices: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Every face's sorted vertex indices padded with -1: (n_faces, max face size), equal rows for
     faces with the same vertex set."""
     sizes = np.diff(offsets)
     keys = np.full((sizes.size, int(sizes.max())), -1, dtype=np.int64)
-    owner = _owner(offsets)
+    owner = segment_owner(offsets)
     order = np.lexsort((vertices, owner))
     keys[owner, np.arange(vertices.size) - offsets[owner]] = vertices[order]
     return keys
@@ -361,7 +345,7 @@ class PolyhedronMesh:
                  cell_offsets: npt.ArrayLike, cell_faces: npt.ArrayLike, cell_face_signs: npt.ArrayLike,
                  tags: npt.ArrayLike | None = None, region_names: Mapping[str, int] | None = None, *,
                  planar_rtol: float = PLANAR_RTOL) -> None:
-        self.points = _as_points(points)
+        self.points = as_points(points, 3)
         self.face_offsets, self.face_vertices = _as_index_csr(face_offsets, face_vertices, self.n_points,
                                                               "faces", "point")
         self.cell_offsets, self.cell_faces = _as_index_csr(cell_offsets, cell_faces, self.n_faces, "cells", "face")
@@ -388,7 +372,7 @@ class PolyhedronMesh:
     def _cell_of_face(self) -> npt.NDArray[np.int64]:
         """The lowest cell holding each face (n_faces,), -1 for a face of no cell."""
         first = np.full(self.n_faces, self.n_cells, dtype=np.int64)
-        np.minimum.at(first, self.cell_faces, _owner(self.cell_offsets))
+        np.minimum.at(first, self.cell_faces, segment_owner(self.cell_offsets))
         return np.where(first == self.n_cells, -1, first)
 
     def _check_face_use(self) -> None:
@@ -397,7 +381,7 @@ class PolyhedronMesh:
         if np.any(count == 0):
             f = int(np.argmin(count))
             raise ValueError(f"face {f} belongs to no cell (vertices {self.face(f).tolist()})")
-        owner = _owner(self.cell_offsets)
+        owner = segment_owner(self.cell_offsets)
         if np.any(count > 2):
             f = int(np.argmax(count > 2))
             cells = owner[self.cell_faces == f].tolist()
@@ -516,7 +500,7 @@ class PolyhedronMesh:
         """The cells of every face (n_faces, 2): column 0 the cell it points out of (sign +1),
         column 1 the cell it points into (sign -1), -1 where there is none."""
         out = np.full((self.n_faces, 2), -1, dtype=np.int64)
-        out[self.cell_faces, (self.cell_face_signs < 0).astype(np.int64)] = _owner(self.cell_offsets)
+        out[self.cell_faces, (self.cell_face_signs < 0).astype(np.int64)] = segment_owner(self.cell_offsets)
         return out
 
     def boundary_faces(self) -> npt.NDArray[np.int64]:
@@ -566,7 +550,7 @@ class PolyhedronMesh:
             Naming the cell: a face listed by two cells with the same vertex set in an order that is
             neither the reverse nor the same cyclic order, and everything the constructor refuses.
         """
-        points = _as_points(points)
+        points = as_points(points, 3)
         face_offsets, face_vertices = _as_index_csr(face_offsets, face_vertices, points.shape[0], "faces", "point")
         cell_offsets, _ = _as_index_csr(cell_offsets, np.arange(face_offsets.size - 1), face_offsets.size - 1,
                                         "cells", "face")
