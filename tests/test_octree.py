@@ -25,8 +25,8 @@ def contact_dimension(lo, hi):
     return np.where(touching, (overlap > 1e-12).sum(axis=2), -1)
 
 
-def reference_balance(levels_ijk, n, most):
-    """The minimal 2:1 refinement of a set of leaves (level, i, j, k) over an n^3 grid of unit boxes,
+def reference_balance(levels_ijk, most):
+    """The minimal 2:1 refinement of a set of leaves (level, i, j, k) on a grid of unit boxes,
     by brute force: split the coarser of any two leaves with a contact of dimension >= 3 - most
     whose levels differ by more than one, until none is left."""
     leaves = sorted(levels_ijk)
@@ -54,7 +54,7 @@ def test_corner_refinement_is_balanced_across_faces_and_edges(levels, n_cells):
     # the corner cube split levels times (8**levels leaves), its face and edge neighbours as balance needs
     corner = {(levels, i, j, k) for i in range(2 ** levels) for j in range(2 ** levels) for k in range(2 ** levels)}
     others = {(0, i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)} - {(0, 0, 0, 0)}
-    assert leaf_set(octree) == reference_balance(corner | others, 2, most=2)
+    assert leaf_set(octree) == reference_balance(corner | others, most=2)
     if n_cells is not None:
         assert octree.n_cells == n_cells
     lo, hi = boxes(octree)
@@ -68,7 +68,7 @@ def test_balance_across_faces_only_allows_jumps_of_two_along_edges():
     octree = octree_box([0, 0, 0], [2, 2, 2], 2).refine(in_corner, 2, balance="faces")
     corner = {(2, i, j, k) for i in range(4) for j in range(4) for k in range(4)}
     others = {(0, i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)} - {(0, 0, 0, 0)}
-    assert leaf_set(octree) == reference_balance(corner | others, 2, most=1)
+    assert leaf_set(octree) == reference_balance(corner | others, most=1)
     contact = contact_dimension(*boxes(octree))
     jump = np.abs(octree.level[:, None] - octree.level[None])
     assert jump[contact == 2].max() == 1 and jump[contact == 1].max() == 2
@@ -146,3 +146,23 @@ def test_tags_of_the_polyhedra():
     mesh = octree_box([0, 0, 0], [2, 1, 1], [2, 1, 1]).refine([0]).polyhedra(
         lambda x: np.where(x[0] < 1, 1, 2), {"fine": 1})
     assert np.bincount(mesh.tags).tolist() == [0, 8, 1] and mesh.region_names == {"fine": 1}
+
+
+@pytest.mark.parametrize("seed", [1, 3, 5])
+def test_random_refinements_of_a_box_are_the_minimal_balanced_ones(seed):
+    """Random leaves of a 3 x 2 x 1 grid on a non-cubic box refined three times in a row, 1 or 2
+    levels each: the leaves are the brute-force minimal balance of the unbalanced refinement, and
+    their polyhedra fill the box."""
+    rng = np.random.default_rng(seed)
+    octree = octree_box([-1.0, 0.0, 0.0], [2.0, 1.0, 0.5], [3, 2, 1])
+    for _ in range(3):
+        marked = rng.random(octree.n_cells) < 0.1
+        marked[rng.integers(octree.n_cells)] = True
+        levels = 1 + int(rng.integers(2))
+        refined = octree.refine(marked, levels)
+        assert leaf_set(refined) == reference_balance(leaf_set(octree.refine(marked, levels, balance=None)), most=2)
+        octree = refined
+    lo, hi = boxes(octree)
+    mesh = octree.polyhedra()
+    assert mesh.volumes.sum() == pytest.approx(1.5, rel=1e-13)
+    assert mesh.volumes == pytest.approx(np.prod(hi - lo, axis=1), rel=1e-12)
