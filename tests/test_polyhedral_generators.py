@@ -55,14 +55,25 @@ def test_extrude_polygons_errors():
         extrude_polygons(mesh2d, 1.0, 0)
 
 
-def test_voronoi_cells_are_convex_fill_the_box_and_are_voronoi():
-    lower, upper = np.array([0.0, 0.0, 0.0]), np.array([2.0, 1.0, 1.0])
-    seeds = lower + np.random.default_rng(7).random((40, 3)) * (upper - lower)
+@pytest.mark.parametrize("clustered", [False, True])
+def test_voronoi_cells_are_convex_fill_the_box_and_are_voronoi(clustered):
+    """40 uniform seeds in a 2 x 1 x 1 box, or 300 seeds in a corner of a 4 x 2 x 2 box and 2 far from
+    its faces (their cells reach the faces from farther than three mean spacings: voronoi_box must
+    mirror more seeds than at first)."""
+    rng = np.random.default_rng(7)
+    if clustered:
+        lower, upper = np.array([0.0, 0.0, 0.0]), np.array([4.0, 2.0, 2.0])
+        seeds = np.vstack([rng.random((300, 3)) * 0.5, [[2.0, 1.0, 1.0], [3.0, 1.1, 0.9]]])
+    else:
+        lower, upper = np.array([0.0, 0.0, 0.0]), np.array([2.0, 1.0, 1.0])
+        seeds = rng.random((40, 3)) * upper
     mesh = voronoi_box(seeds, lower, upper)
-    assert mesh.n_cells == 40 and mesh.volumes.sum() == pytest.approx(2.0, rel=1e-12)
+    size = upper - lower
+    assert mesh.n_cells == seeds.shape[0] and mesh.volumes.sum() == pytest.approx(np.prod(size), rel=1e-12)
     on_box = np.isclose(mesh.face_centroids, lower).any(axis=1) | np.isclose(mesh.face_centroids, upper).any(axis=1)
     assert_faces_matched(mesh, on_box)
-    assert np.linalg.norm(mesh.face_area_vectors[on_box], axis=1).sum() == pytest.approx(2 * (2 + 2 + 1))
+    assert np.linalg.norm(mesh.face_area_vectors[on_box], axis=1).sum() == pytest.approx(
+        2 * (size[0] * size[1] + size[1] * size[2] + size[0] * size[2]))
     tree = cKDTree(seeds)
     for c in range(mesh.n_cells):
         points, faces = mesh.polyhedron(c)

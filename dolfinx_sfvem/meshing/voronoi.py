@@ -26,15 +26,41 @@ def _counter_clockwise(points, offsets, vertices, normals):
     return out
 
 
+def _with_images(seeds: np.ndarray, lower: np.ndarray, upper: np.ndarray, reach: float) -> np.ndarray:
+    """The seeds followed by the mirror images, across each face of the box, of the seeds closer
+    than ``reach`` to it."""
+    images = [seeds]
+    for d in range(3):
+        for plane in (lower[d], upper[d]):
+            image = seeds[np.abs(seeds[:, d] - plane) < reach]
+            image[:, d] = 2.0 * plane - image[:, d]
+            images.append(image)
+    return np.concatenate(images)
+
+
+def _inside(diagram: Voronoi, n: int, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """The Voronoi regions of the first ``n`` generators are bounded and inside the box."""
+    regions = [diagram.regions[r] for r in diagram.point_region[:n]]
+    vertices = np.concatenate([np.asarray(r, dtype=np.int64) for r in regions])
+    if np.any(vertices < 0):
+        return False
+    tol = 1e-12 * float(np.linalg.norm(upper - lower))
+    x = diagram.vertices[vertices]
+    return bool(np.all((x >= lower - tol) & (x <= upper + tol)))
+
+
 def voronoi_box(seeds: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike, tags: npt.ArrayLike | None = None,
                 region_names: Mapping[str, int] | None = None) -> PolyhedronMesh:
     """The Voronoi cells of ``seeds`` clipped to the box [lower, upper]: convex polyhedra.
 
-    The seeds are mirrored across the six faces of the box and the Voronoi diagram of all of them
-    computed (scipy.spatial.Voronoi): the cell of a seed is then exactly its clipped cell (inside
-    the box a seed is nearer to every point than the mirror images of any seed; its own images bound
-    it by the box's faces). Cell ``c`` belongs to seed ``c``; a face between two seeds points out of
-    the lower one's cell. Coordinates within the tolerance of the box's planes are put on them.
+    The seeds near the six faces of the box are mirrored across them and the Voronoi diagram of the
+    seeds and images computed (scipy.spatial.Voronoi). Inside the box a seed is nearer to every
+    point than its mirror images, so the images cut nothing there, and the cell of a seed is
+    exactly its clipped cell as soon as it lies inside the box (its own images bound it by the
+    faces): seeds within three mean spacings of a face are mirrored first, twice as far while some
+    cell reaches out of the box (all seeds at last, when every cell is the clipped one). Cell ``c``
+    belongs to seed ``c``; a face between two seeds points out of the lower one's cell.
+    Coordinates within 1e-12 of the box's planes (relative to its diagonal) are put on them.
 
     Parameters
     ----------
@@ -64,14 +90,13 @@ def voronoi_box(seeds: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
     if np.any(count > 1):
         raise ValueError(f"voronoi_box: seed {first[np.argmax(count > 1)]} is repeated")
     n = seeds.shape[0]
-    images = [seeds]
-    for d in range(3):
-        for plane in (lower[d], upper[d]):
-            image = seeds.copy()
-            image[:, d] = 2.0 * plane - image[:, d]
-            images.append(image)
-    generators = np.concatenate(images)
-    diagram = Voronoi(generators)
+    reach = 3.0 * (np.prod(upper - lower) / n) ** (1 / 3)             # three mean seed spacings
+    while True:
+        generators = _with_images(seeds, lower, upper, reach)
+        diagram = Voronoi(generators)
+        if _inside(diagram, n, lower, upper) or reach > np.max(upper - lower):
+            break
+        reach *= 2.0
     ridges = np.flatnonzero(diagram.ridge_points.min(axis=1) < n)
     pair = np.sort(diagram.ridge_points[ridges], axis=1)                       # (k, 2): own seed first
     polygons = [diagram.ridge_vertices[r] for r in ridges]
