@@ -33,7 +33,7 @@ Tolerance: ``tol = RTOL * d`` with ``d`` the diagonal of the bounding box of the
 (``RTOL`` of :mod:`dolfinx_sfvem.polygon`); a face of area at most ``tol`` times its diameter, a
 cell of volume at most ``tol`` times its squared diameter are degenerate.
 
-The face and cell loops are compiled (numba): validating 10^5 cells takes about a second
+The face and cell loops are compiled (numba): validating 10^5 cells takes 1-2 s
 (docs/notes/2026-11-26-polyhedral-meshes.md).
 """
 from __future__ import annotations

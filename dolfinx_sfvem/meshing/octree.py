@@ -22,7 +22,6 @@ from typing import Literal, Union
 import numpy as np
 import numpy.typing as npt
 
-from ..polygon_mesh import concatenated_ranges
 from ..polyhedron_mesh import PolyhedronMesh
 
 Balance = Literal["faces", "edges", "vertices"]
@@ -226,59 +225,14 @@ class OctreeMesh:
         region_names
             Names of region tags.
         """
+        a, b, axis, direction, corners = self._squares()
         L = self.finest
-        size = 1 << (L - self.level)                               # edge length on the finest grid
+        size = 1 << (L - self.level)
         anchor = self.ijk << (L - self.level)[:, None]
-        # the squares: (leaf a, its side, leaf b across or -1), where b is not finer than a
-        sides = np.array([[d, s] for d in range(3) for s in (-1, 1)])               # (6, 2): axis, direction
-        a = np.repeat(np.arange(self.n_cells), 6)
-        axis, direction = np.tile(sides[:, 0], self.n_cells), np.tile(sides[:, 1], self.n_cells)
-        across = self.ijk[a] + direction[:, None] * np.eye(3, dtype=np.int64)[axis]
-        outside = np.any((across < 0) | (across >= self.n << self.level[a][:, None]), axis=1)
-        b = self.covering(self.level[a], across)
-        keep = outside | ((b >= 0) & ((self.level[np.maximum(b, 0)] < self.level[a]) | (b > a)))
-        a, axis, direction, b = a[keep], axis[keep], direction[keep], np.where(outside[keep], -1, b[keep])
-        # corners on the finest grid, counter-clockwise around the outward normal of a
-        s = size[a]
-        plane = anchor[a, axis] + np.where(direction > 0, s, 0)
-        uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
-        uv = np.where((direction > 0)[:, None, None], uv, uv[::-1])                  # (k, 4, 2)
-        corners = np.empty((a.size, 4, 3), dtype=np.int64)
-        for d in range(3):
-            on = axis == d
-            e1, e2 = (d + 1) % 3, (d + 2) % 3
-            corners[on, :, d] = plane[on, None]
-            corners[on, :, e1] = anchor[a[on], e1][:, None] + uv[on, :, 0] * s[on, None]
-            corners[on, :, e2] = anchor[a[on], e2][:, None] + uv[on, :, 1] * s[on, None]
-        # the points: every leaf corner, numbered in the order of their keys
-        extent = (self.n << L) + 1
+        extent = (self.n << L) + 1                                 # grid points per axis on the finest grid
         all_corners = (anchor[:, None, :] + _CHILDREN[None] * size[:, None, None]).reshape(-1, 3)
-        key = lambda x: (x[..., 0] * extent[1] + x[..., 1]) * extent[2] + x[..., 2]    # noqa: E731
-        point_keys = np.unique(key(all_corners))
-        # hanging vertices on every square side (start -> end): midpoints, recursively
-        start, end = corners.reshape(-1, 3), np.roll(corners, -1, axis=1).reshape(-1, 3)
-        side_of, t0, t1 = np.arange(start.shape[0]), np.zeros(start.shape[0], np.int64), np.repeat(s, 4)
-        found_side, found_t = [], []
-        while side_of.size:
-            even = (t1 - t0) % 2 == 0
-            side_of, t0, t1 = side_of[even], t0[even], t1[even]
-            tm = (t0 + t1) // 2
-            mid = start[side_of] + (end[side_of] - start[side_of]) // np.repeat(s, 4)[side_of, None] * tm[:, None]
-            k = key(mid)
-            pos = np.minimum(np.searchsorted(point_keys, k), point_keys.size - 1)
-            hit = point_keys[pos] == k
-            found_side.append(side_of[hit])
-            found_t.append(tm[hit])
-            side_of, t0, t1 = (np.concatenate([side_of[hit]] * 2), np.concatenate([t0[hit], tm[hit]]),
-                               np.concatenate([tm[hit], t1[hit]]))
-        # face vertex lists: per side its start corner (t = 0) and its hanging vertices by t
-        entry_side = np.concatenate([np.arange(start.shape[0])] + found_side)
-        entry_t = np.concatenate([np.zeros(start.shape[0], np.int64)] + found_t)
-        entry_point = np.concatenate([start] + [start[fs] + (end[fs] - start[fs]) // np.repeat(s, 4)[fs, None]
-                                                * ft[:, None] for fs, ft in zip(found_side, found_t)])
-        order = np.lexsort((entry_t, entry_side))
-        face_vertices = np.searchsorted(point_keys, key(entry_point[order]))
-        face_offsets = np.concatenate([[0], np.cumsum(np.bincount(entry_side // 4, minlength=a.size))])
+        point_keys = np.unique(_point_key(all_corners, extent))     # every leaf corner, numbered in key order
+        face_offsets, face_vertices = _face_vertex_lists(corners, point_keys, extent)
         # the cells' faces: (a, +1) and (b, -1), ordered by cell and side
         face = np.concatenate([np.arange(a.size), np.flatnonzero(b >= 0)])
         cell = np.concatenate([a, b[b >= 0]])
@@ -292,6 +246,67 @@ class OctreeMesh:
         tags = None if tag_of is None else np.asarray(tag_of(self.centres.T.copy()), dtype=np.int64)
         return PolyhedronMesh(points, face_offsets, face_vertices, cell_offsets, face[order], sign[order], tags,
                               region_names)
+
+    def _squares(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The faces of the polyhedra as squares: a leaf side across which the leaf is as coarse or
+        coarser, or the boundary (a side between two leaves of one level taken from the lower
+        index). Returns the leaf a it points out of (k,), the leaf b across or -1 (k,), its axis
+        (k,) and direction +-1 (k,), its corners on the finest grid (k, 4, 3), counter-clockwise
+        about the outward normal of a."""
+        sides = np.array([[d, s] for d in range(3) for s in (-1, 1)])               # (6, 2): axis, direction
+        a = np.repeat(np.arange(self.n_cells), 6)
+        axis, direction = np.tile(sides[:, 0], self.n_cells), np.tile(sides[:, 1], self.n_cells)
+        across = self.ijk[a] + direction[:, None] * np.eye(3, dtype=np.int64)[axis]
+        outside = np.any((across < 0) | (across >= self.n << self.level[a][:, None]), axis=1)
+        b = self.covering(self.level[a], across)
+        keep = outside | ((b >= 0) & ((self.level[np.maximum(b, 0)] < self.level[a]) | (b > a)))
+        a, axis, direction, b = a[keep], axis[keep], direction[keep], np.where(outside[keep], -1, b[keep])
+        s = 1 << (self.finest - self.level[a])
+        anchor = self.ijk[a] << (self.finest - self.level[a])[:, None]
+        plane = anchor[np.arange(a.size), axis] + np.where(direction > 0, s, 0)
+        uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
+        uv = np.where((direction > 0)[:, None, None], uv, uv[::-1])                  # (k, 4, 2)
+        corners = np.empty((a.size, 4, 3), dtype=np.int64)
+        for d in range(3):
+            on = axis == d
+            e1, e2 = (d + 1) % 3, (d + 2) % 3
+            corners[on, :, d] = plane[on, None]
+            corners[on, :, e1] = anchor[on, e1][:, None] + uv[on, :, 0] * s[on, None]
+            corners[on, :, e2] = anchor[on, e2][:, None] + uv[on, :, 1] * s[on, None]
+        return a, b, axis, direction, corners
+
+
+def _point_key(x: np.ndarray, extent: np.ndarray) -> np.ndarray:
+    """Key of the finest-grid points ``x`` (..., 3) on a grid of ``extent`` (3,) points per axis."""
+    return (x[..., 0] * extent[1] + x[..., 1]) * extent[2] + x[..., 2]
+
+
+def _face_vertex_lists(corners: np.ndarray, point_keys: np.ndarray, extent: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (offsets (k + 1,), vertices) of the squares ``corners`` (k, 4, 3) with every point of
+    ``point_keys`` (sorted keys; a vertex's index is its position there) that lies inside a side
+    inserted in order along it: the midpoint of a side if it is a point, then recursively the
+    midpoints of its halves (a leaf corner inside a side implies one at its midpoint)."""
+    start, end = corners.reshape(-1, 3), np.roll(corners, -1, axis=1).reshape(-1, 3)
+    length = np.abs(end - start).sum(axis=1)
+    along = lambda side, t: start[side] + (end[side] - start[side]) // length[side, None] * t[:, None]  # noqa: E731
+    side, t0, t1 = np.arange(start.shape[0]), np.zeros(start.shape[0], np.int64), length
+    entry_side, entry_t = [side], [t0]                             # every side's start corner at t = 0
+    while side.size:
+        even = (t1 - t0) % 2 == 0
+        side, t0, t1 = side[even], t0[even], t1[even]
+        tm = (t0 + t1) // 2
+        key = _point_key(along(side, tm), extent)
+        hit = point_keys[np.minimum(np.searchsorted(point_keys, key), point_keys.size - 1)] == key
+        entry_side.append(side[hit])
+        entry_t.append(tm[hit])
+        side, t0, t1 = (np.concatenate([side[hit]] * 2), np.concatenate([t0[hit], tm[hit]]),
+                        np.concatenate([tm[hit], t1[hit]]))
+    side, t = np.concatenate(entry_side), np.concatenate(entry_t)
+    order = np.lexsort((t, side))
+    vertices = np.searchsorted(point_keys, _point_key(along(side[order], t[order]), extent))
+    offsets = np.concatenate([[0], np.cumsum(np.bincount(side // 4, minlength=corners.shape[0]))])
+    return offsets, vertices
 
 
 def octree_box(lower: npt.ArrayLike, upper: npt.ArrayLike, n: int | npt.ArrayLike) -> OctreeMesh:
