@@ -47,16 +47,18 @@ _OK, _REPEATED, _ZERO_AREA, _SELF_INTERSECTION = 0, 1, 2, 3
 
 
 # --------------------------------------------------------------------------- input conversion
-def _as_points(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
+def as_points(points: npt.ArrayLike, dim: int = 2) -> npt.NDArray[np.float64]:
+    """``points`` as a C-contiguous (n, dim) float64 array; ValueError naming the malformed input
+    or the first point that is not finite."""
     try:
         x = np.asarray(points)
     except (TypeError, ValueError) as err:
-        raise ValueError(f"points must be an (n, 2) array of floats: {err}") from None
+        raise ValueError(f"points must be an (n, {dim}) array of floats: {err}") from None
     if x.dtype.kind not in "iuf":
-        raise ValueError(f"points must be an (n, 2) array of floats, got dtype {x.dtype}")
+        raise ValueError(f"points must be an (n, {dim}) array of floats, got dtype {x.dtype}")
     x = x.astype(np.float64)
-    if x.ndim != 2 or x.shape[1] != 2:
-        raise ValueError(f"points must have shape (n, 2), got {x.shape}")
+    if x.ndim != 2 or x.shape[1] != dim:
+        raise ValueError(f"points must have shape (n, {dim}), got {x.shape}")
     finite = np.isfinite(x).all(axis=1)
     if not finite.all():
         k = int(np.argmin(finite))
@@ -409,7 +411,7 @@ def _locate(x, points, offsets, vertices, tol):
 
 
 # --------------------------------------------------------------------------- CSR topology
-def _owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+def segment_owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Segment index of every entry of a CSR array with these offsets, (offsets[-1],)."""
     return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
 
@@ -536,7 +538,7 @@ class PolygonMesh:
 
     def __init__(self, points: npt.ArrayLike, polygons: Iterable[npt.ArrayLike], tags: npt.ArrayLike | None = None, *,
                  insert_hanging_nodes: bool = True) -> None:
-        self.points = _as_points(points)
+        self.points = as_points(points)
         offsets, vertices = _as_csr(polygons, self.points.shape[0])
         self.tags = _as_tags(tags, offsets.size - 1)
         self.region_names: dict[str, int] = {}
@@ -686,11 +688,11 @@ class PolygonMesh:
     @property
     def triangle_polygon(self) -> npt.NDArray[np.int64]:
         """Polygon of every sub-triangle, (n_triangles,)."""
-        return _owner(self.triangle_offsets)
+        return segment_owner(self.triangle_offsets)
 
     def polygon_of_entry(self) -> npt.NDArray[np.int64]:
         """Polygon of every entry of :attr:`vertices`, (offsets[-1],)."""
-        return _owner(self.offsets)
+        return segment_owner(self.offsets)
 
     def polygon(self, i: int) -> npt.NDArray[np.int64]:
         """Vertex indices (N,) of polygon ``i``, counter-clockwise."""
