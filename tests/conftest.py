@@ -552,3 +552,104 @@ class Tiny3D:
 
 
 tiny3d_fixture = shared(Tiny3D, "tiny3d")
+
+
+# =========================================================================== test polyhedra
+def refined_cube(refined: tuple[int, ...]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The unit cube as an octree cell next to refined neighbours: each face listed in ``refined``
+    (0..5 = -x, +x, -y, +y, -z, +z) is split into 4 quadrilaterals, and every cube edge of a split
+    face carries its midpoint as a hanging vertex in the other face too. Faces outward."""
+    index: dict[tuple, int] = {}
+
+    def vertex(x) -> int:
+        return index.setdefault(tuple(np.round(x, 12)), len(index))
+
+    faces = []
+    for k in range(3):
+        for side in (0, 1):
+            a, b = ((k + 1) % 3, (k + 2) % 3) if side == 1 else ((k + 2) % 3, (k + 1) % 3)  # (e_a x e_b) . n > 0
+
+            def point(u, v):
+                x = np.zeros(3)
+                x[k], x[a], x[b] = side, u, v
+                return vertex(x)
+
+            if 2 * k + side in refined:
+                for u0, v0 in ((0, 0), (0.5, 0), (0.5, 0.5), (0, 0.5)):
+                    faces.append(np.array([point(u0, v0), point(u0 + 0.5, v0), point(u0 + 0.5, v0 + 0.5),
+                                           point(u0, v0 + 0.5)]))
+                continue
+            # a cube edge is split when the face across it is refined
+            split = {(0.5, 0): 2 * b + 0 in refined, (1, 0.5): 2 * a + 1 in refined,
+                     (0.5, 1): 2 * b + 1 in refined, (0, 0.5): 2 * a + 0 in refined}
+            loop = []
+            for corner, middle in (((0, 0), (0.5, 0)), ((1, 0), (1, 0.5)), ((1, 1), (0.5, 1)), ((0, 1), (0, 0.5))):
+                loop.append(point(*corner))
+                if split[middle]:
+                    loop.append(point(*middle))
+            faces.append(np.array(loop))
+    points = np.array(sorted(index, key=index.get), dtype=float)
+    return points, faces
+
+
+def prism(polygon: np.ndarray, height: float = 1.0) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The prism over a counter-clockwise polygon (N, 2), from z = 0 to z = height."""
+    N = len(polygon)
+    points = np.vstack([np.column_stack([polygon, np.zeros(N)]), np.column_stack([polygon, np.full(N, height)])])
+    faces = [np.arange(N)[::-1], np.arange(N, 2 * N)]
+    faces += [np.array([i, (i + 1) % N, N + (i + 1) % N, N + i]) for i in range(N)]
+    return points, faces
+
+
+def _convex_hull_polyhedron(seed: int, n: int = 12) -> tuple[np.ndarray, list[np.ndarray]]:
+    """A random convex polyhedron: the convex hull of n random points, triangular faces turned outward."""
+    cloud = np.random.default_rng(seed).random((n, 3))
+    hull = ConvexHull(cloud)
+    keep = np.unique(hull.simplices)
+    renumber = np.full(n, -1)
+    renumber[keep] = np.arange(keep.size)
+    points = cloud[keep]
+    centre = points.mean(axis=0)
+    faces = []
+    for tri in renumber[hull.simplices]:
+        a, b, c = points[tri]
+        faces.append(tri if np.cross(b - a, c - a) @ (a - centre) > 0 else tri[::-1])
+    return points, faces
+
+
+def _dented_cube() -> tuple[np.ndarray, list[np.ndarray]]:
+    """The unit cube whose top is four triangles meeting at (0.5, 0.5, 0.6): non-convex, star-shaped."""
+    points, faces = refined_cube(())
+    points = np.vstack([points, [0.5, 0.5, 0.6]])
+    top = next(f for f in faces if np.all(points[f, 2] == 1.0))
+    faces = [f for f in faces if f is not top]
+    faces += [np.array([top[i], top[(i + 1) % 4], len(points) - 1]) for i in range(4)]
+    return points, faces
+
+
+def _tetrahedron() -> tuple[np.ndarray, list[np.ndarray]]:
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.1, 0.0], [0.2, 0.9, 0.1], [0.3, 0.2, 1.1]])
+    return points, [np.array(f) for f in ([0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2])]
+
+
+#: name -> (points, outward faces); octree cubes with 1..6 refined neighbours
+POLYHEDRA = {
+    "cube": refined_cube(()),
+    "tetrahedron": _tetrahedron(),
+    "triangle prism": prism(np.array([[0.0, 0.0], [1.0, 0.0], [0.3, 0.8]]), 0.7),
+    "pentagon prism": prism(regular_polygon(5), 1.2),
+    "L prism (non-convex)": prism(np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)),
+    "dented cube (non-convex)": _dented_cube(),
+    "random convex hull": _convex_hull_polyhedron(5),
+    **{f"cube, {k} refined neighbour{'s' if k > 1 else ''}": refined_cube(tuple(range(k))) for k in range(1, 7)},
+}
+
+
+@pytest.fixture(scope="session")
+def polyhedra() -> dict[str, tuple[np.ndarray, list[np.ndarray]]]:
+    return POLYHEDRA
+
+
+@pytest.fixture(params=list(POLYHEDRA))
+def polyhedron(request) -> tuple[np.ndarray, list[np.ndarray]]:
+    return POLYHEDRA[request.param]
