@@ -651,5 +651,11 @@ def polyhedra() -> dict[str, tuple[np.ndarray, list[np.ndarray]]]:
 
 
 @pytest.fixture(params=list(POLYHEDRA))
-def polyhedron(request) -> tuple[np.ndarray, list[np.ndarray]]:
-    return POLYHEDRA[request.param]
+def polyhedron_name(request) -> str:
+    """Runs a test once per test polyhedron (its name in ``polyhedra``)."""
+    return request.param
+
+
+@pytest.fixture
+def polyhedron(polyhedron_name) -> tuple[np.ndarray, list[np.ndarray]]:
+    return POLYHEDRA[polyhedron_name]
