@@ -264,16 +264,18 @@ def pi_nabla_2_3d(volume, x_E, h_E, normals, face_centroids, x_q, w_q, point_fac
 
 
 @numba.njit(cache=True)
-def projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, Phi, Pi_nabla, l):
+def projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla, l):
     """Mass matrix M (n_l, n_l) and right sides R (3, n_l, n_d) of Pi^0_l nabla: M Pi_m[c] = R[c].
 
         (r_c)_a = sum_f n_f,c int_f m_a Pi^nabla_{k_f,f} v - int_E (dm_a/dx_c) Pi^nabla_2 v
 
     (int_E grad v . p = -int_E v div p + sum_f int_f v p . n_f with the enhanced face and cell
     spaces). The face rule must be exact for degree max(2l, l + max k_f): M needs the monomial
-    integrals up to 2l, the face terms degree l + k_f.
+    integrals up to 2l, the face terms degree l + k_f. The face terms go through the small moment
+    matrices F_f = int_f m m_f^T (3D monomials of degree l against the face's 2D ones of degree
+    k_f): R[c][:, face DOFs] += n_f,c F_f Pi^nabla_{k_f,f}.
     """
-    n_d = Phi.shape[1]
+    origins, bases, centres, diameters, degrees, Pi_offsets, Pi_flat, dof_offsets, dofs = face_data
     nl = n_monomials3(l)
     integrals = monomial_integrals_from_faces(x_q, w_q, point_face, normals, face_centroids, x_E, h_E, 2 * l)
     alpha = exponents3(l)
@@ -282,19 +284,35 @@ def projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face
         for b in range(nl):
             e = alpha[a] + alpha[b]
             M[a, b] = integrals[monomial_index3(e[0], e[1], e[2])]
-    # face terms as one product: R[c] = (w n_c m)^T Phi
+    n_f = degrees.size
+    n_k = n_monomials(degrees.max())
+    F = np.zeros((n_f, nl, n_k))
     m = np.empty(nl)
     dm = np.empty((3, nl))
-    weighted = np.empty((3, nl, w_q.size))
+    m_f = np.empty(n_k)
+    dm_dx = np.empty(n_k)
+    dm_dy = np.empty(n_k)
+    xi = np.empty(2)
     for q in range(w_q.size):
+        f = point_face[q]
         evaluate_monomials3(x_q[q], x_E, h_E, l, m, dm)
-        n = normals[point_face[q]]
-        for c in range(3):
-            for a in range(nl):
-                weighted[c, a, q] = w_q[q] * n[c] * m[a]
-    R = np.empty((3, nl, n_d))
-    for c in range(3):
-        R[c] = weighted[c] @ Phi
+        xi[0] = np.dot(x_q[q] - origins[f], bases[f, 0])
+        xi[1] = np.dot(x_q[q] - origins[f], bases[f, 1])
+        evaluate_monomials(xi, centres[f], diameters[f], degrees[f], m_f, dm_dx, dm_dy)
+        for a in range(nl):
+            wm = w_q[q] * m[a]
+            for b in range(n_monomials(degrees[f])):
+                F[f, a, b] += wm * m_f[b]
+    R = np.zeros((3, nl, n_d))
+    for f in range(n_f):
+        n_face = dof_offsets[f + 1] - dof_offsets[f]
+        n_kf = n_monomials(degrees[f])
+        S = F[f, :, :n_kf].copy() @ Pi_flat[Pi_offsets[f]:Pi_offsets[f + 1]].reshape(n_kf, n_face)
+        for j in range(n_face):
+            k = dofs[dof_offsets[f] + j]
+            for c in range(3):
+                for a in range(nl):
+                    R[c, a, k] += normals[f, c] * S[a, j]
     # cell term: - int_E (dm_a/dx_c) m_b (Pi_nabla v~)_b, dm_a/dx_c = alpha_ac m_(a - e_c) / h_E
     alpha_2 = exponents3(2)
     for a in range(nl):
@@ -337,8 +355,8 @@ def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, fac
             continue
         x_q, w_q, point_face = _face_rule(triangles, triangle_face, rule_points, rule_weights, rule_offsets,
                                           max(2 * l, l + face_data[4].max()))
-        Phi = face_basis_values(x_q, point_face, n_d, *face_data)
-        M, R = projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, Phi, Pi_nabla, l)
+        M, R = projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla,
+                                    l)
         L, mass_ok = cholesky(M)
         if not mass_ok:
             return l, -1, -1, L, R
