@@ -592,6 +592,9 @@ def refined_cube(refined: tuple[int, ...]) -> tuple[np.ndarray, list[np.ndarray]
     return points, faces
 
 
+refined_cube_fixture = shared(refined_cube)
+
+
 def prism(polygon: np.ndarray, height: float = 1.0) -> tuple[np.ndarray, list[np.ndarray]]:
     """The prism over a counter-clockwise polygon (N, 2), from z = 0 to z = height."""
     N = len(polygon)
