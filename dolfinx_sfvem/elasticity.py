@@ -163,4 +163,5 @@ def linear_elastic_stiffness_3d(points: npt.ArrayLike, faces, young: float, pois
     for i, pairs in enumerate(_VOIGT_3D):
         for c, d in pairs:
             B[i, :, c * nd:(c + 1) * nd] += P.Q[d]
-    return np.einsum("ij,iak,jal->kl", C, B, B), P.l
+    CB = np.tensordot(C, B, axes=(1, 0))  # (6, nl, 3 nd): CB_i = sum_j C_ij B_j
+    return B.reshape(6 * nl, 3 * nd).T @ CB.reshape(6 * nl, 3 * nd), P.l
