@@ -51,8 +51,8 @@ from .projection import (RANK_TOL, cholesky, count_zero_eigenvalues, gradient_pr
                          orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system)
 from .quadrature import triangle_rule
 
-#: smallest and largest l tried by the automatic choice (docs/method.md §8)
-L_MIN, L_MAX = 2, 10
+#: smallest and largest l tried by the automatic choice (docs/method.md §8; l_min = 3 as in 2D)
+L_MIN, L_MAX = 3, 10
 
 #: largest degree of a face projection Pi^nabla_{k_f,f} (docs/method.md §8)
 K_FACE_MAX = 8
