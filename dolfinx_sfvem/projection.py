@@ -438,6 +438,27 @@ def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
 
 
 @numba.njit(cache=True)
+def rank_of_projection(M: np.ndarray, R: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The rank check of one projection system M Pi_m[c] = R[c] (polygon or polyhedron).
+
+    Returns
+    -------
+    L : (nl, nl) float64
+        Cholesky factor of M.
+    Q : (D, nl, nd) float64
+        :func:`orthonormal_moments`; R itself when M is singular.
+    gradient_nullity, strain_nullity : int
+        :func:`null_space_dimensions`; both -1 if M is numerically singular (:func:`cholesky`).
+    """
+    L, mass_ok = cholesky(M)
+    if not mass_ok:
+        return L, R, -1, -1
+    Q = orthonormal_moments(L, R)
+    gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
+    return L, Q, gradient_nullity, strain_nullity
+
+
+@numba.njit(cache=True)
 def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, l_from: int, l_to: int,
              tol: float) -> tuple[int, int, int, np.ndarray, np.ndarray]:
     """Smallest sufficient l in [l_from, l_to] (docs/method.md §3), with its factors L and Q.
@@ -486,12 +507,8 @@ def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, 
             l += 1  # rank(sym Pi grad) <= 3 nl < 2(2N+1) - 3: insufficient by counting alone
             continue
         M, R = projection_system(xy, x_E, h_E, Pi_nabla, l)
-        L, mass_ok = cholesky(M)
-        if not mass_ok:
-            return l, -1, -1, L, R
-        Q = orthonormal_moments(L, R)
-        gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
-        if (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
+        L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
+        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
             return l, gradient_nullity, strain_nullity, L, Q
         l += 1
 

@@ -47,8 +47,8 @@ from .monomials3d import evaluate_monomials3, exponents3, monomial_index3, n_mon
 from .polyhedron import (_edges, _geometry, face_frame, face_quadrature, face_triangles, faces_csr,
                          map_triangle_rule, monomial_integrals_from_faces, plane_coordinates, polyhedron_quadrature,
                          validate_polyhedron)
-from .projection import (RANK_TOL, cholesky, count_zero_eigenvalues, gradient_projection, null_space_dimensions,
-                         orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system)
+from .projection import (RANK_TOL, cholesky, count_zero_eigenvalues, gradient_projection, orthonormal_moments,
+                         pi_nabla_2, polygon_geometry, projection_system, rank_of_projection)
 from .quadrature import triangle_rule
 
 #: smallest and largest l tried by the automatic choice (docs/method.md §8; l_min = 3 as in 2D)
@@ -357,12 +357,8 @@ def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, fac
                                           max(2 * l, l + face_data[4].max()))
         M, R = projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla,
                                     l)
-        L, mass_ok = cholesky(M)
-        if not mass_ok:
-            return l, -1, -1, L, R
-        Q = orthonormal_moments(L, R)
-        gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
-        if (gradient_nullity == 1 and strain_nullity == 6) or l == l_to:
+        L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
+        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 6) or l == l_to:
             return l, gradient_nullity, strain_nullity, L, Q
         l += 1
 
