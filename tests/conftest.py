@@ -604,20 +604,34 @@ def prism(polygon: np.ndarray, height: float = 1.0) -> tuple[np.ndarray, list[np
     return points, faces
 
 
-def _convex_hull_polyhedron(seed: int, n: int = 12) -> tuple[np.ndarray, list[np.ndarray]]:
-    """A random convex polyhedron: the convex hull of n random points, triangular faces turned outward."""
-    cloud = np.random.default_rng(seed).random((n, 3))
+def convex_polyhedron(cloud: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The convex hull of a point cloud as a polyhedron: coplanar hull triangles merged into one
+    face, its vertices ordered counter-clockwise about the outward normal."""
     hull = ConvexHull(cloud)
     keep = np.unique(hull.simplices)
-    renumber = np.full(n, -1)
+    renumber = np.full(len(cloud), -1)
     renumber[keep] = np.arange(keep.size)
     points = cloud[keep]
-    centre = points.mean(axis=0)
+    planes: dict[tuple, set] = {}
+    for simplex, equation in zip(renumber[hull.simplices], hull.equations):
+        planes.setdefault(tuple(np.round(equation, 9)), set()).update(simplex.tolist())
     faces = []
-    for tri in renumber[hull.simplices]:
-        a, b, c = points[tri]
-        faces.append(tri if np.cross(b - a, c - a) @ (a - centre) > 0 else tri[::-1])
+    for equation, members in planes.items():
+        normal, members = np.array(equation[:3]), np.array(sorted(members))
+        centre = points[members].mean(axis=0)
+        t1 = points[members[0]] - centre
+        t2 = np.cross(normal, t1)
+        angle = np.arctan2((points[members] - centre) @ t2, (points[members] - centre) @ t1)
+        faces.append(members[np.argsort(angle)])
     return points, faces
+
+
+def _truncated_octahedron() -> tuple[np.ndarray, list[np.ndarray]]:
+    """The Voronoi cell of the body-centred cubic lattice: 6 squares and 8 regular hexagons."""
+    import itertools
+    cloud = {p for signs in itertools.product((-1, 1), repeat=2) for p in
+             itertools.permutations((0.0, signs[0] * 1.0, signs[1] * 2.0))}
+    return convex_polyhedron(np.array(sorted(cloud)))
 
 
 def _dented_cube() -> tuple[np.ndarray, list[np.ndarray]]:
@@ -643,7 +657,8 @@ POLYHEDRA = {
     "pentagon prism": prism(regular_polygon(5), 1.2),
     "L prism (non-convex)": prism(np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)),
     "dented cube (non-convex)": _dented_cube(),
-    "random convex hull": _convex_hull_polyhedron(5),
+    "random convex hull": convex_polyhedron(np.random.default_rng(5).random((12, 3))),
+    "truncated octahedron (BCC Voronoi cell)": _truncated_octahedron(),
     **{f"cube, {k} refined neighbour{'s' if k > 1 else ''}": refined_cube(tuple(range(k))) for k in range(1, 7)},
 }
 

@@ -57,6 +57,11 @@ def test_geometry_of_the_unit_cube_and_a_hull(polyhedra):
     g = polyhedron_geometry(points, faces)
     assert g.volume == pytest.approx(hull.volume, rel=1e-13)
     assert g.face_areas.sum() == pytest.approx(hull.area, rel=1e-13)
+    # the truncated octahedron with edge a = sqrt(2): volume 8 sqrt(2) a^3, area (6 + 12 sqrt(3)) a^2
+    g = polyhedron_geometry(*polyhedra["truncated octahedron (BCC Voronoi cell)"])
+    assert g.volume == pytest.approx(32.0, rel=1e-14)
+    assert g.face_areas.sum() == pytest.approx(2 * (6 + 12 * np.sqrt(3)), rel=1e-14)
+    np.testing.assert_allclose(g.centroid, 0.0, atol=1e-14)
 
 
 @pytest.mark.parametrize("degree", [1, 4, 7])
