@@ -7,7 +7,8 @@ Three views of a deformed :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (docs/guide
 - ``<prefix>-clip.png``: the mesh cut by a plane through the contact zone, the solids coloured by
   region and the medium as a translucent wireframe, so the gap between the solids shows;
 - ``<prefix>-pressure.png``: the contact pressure on the solids' surface where it exceeds 1 % of
-  its largest value, seen from the side it pushes on, the rest of the solids translucent.
+  its largest value, seen from the side it pushes on (of the surface where it is largest), the
+  rest of the solids translucent.
 
 Rendering is PyVista on VTK's wheels (pinned in pyproject.toml). Offscreen, without a display:
 VTK's EGL window on Mesa (Debian: libegl1, libegl-mesa0, libgl1-mesa-dri; installed by the
@@ -87,15 +88,19 @@ def _grid(mesh, x: np.ndarray, cells: np.ndarray):
 
 
 def _contact_view(mesh, x, surface, pressure):
-    """Where the contact is and its normal: the centre of the contact zone (the surface's vertices with
-    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal
-    (None, None without a pressure)."""
+    """Where the contact is and its normal: the centre of the contact zone on the surface that carries
+    the largest pressure (the surface's vertices with pressure above :data:`PRESSURE_THRESHOLD` of the
+    largest whose reference outward normal is within 90° of the normal where it is largest) and their
+    mean reference outward normal (None, None without a pressure). The zone lies on both surfaces
+    pressed together (two bodies', or two of one body's in self-contact), whose normals are opposite:
+    taken together, their mean normal would be arbitrary."""
     if surface is None or pressure is None or not np.any(pressure > 0.0):
         return None, None
     keys = surface.node_keys
     vertex = keys < mesh.points.shape[0]
     p = np.where(vertex, pressure, 0.0)
-    zone = p > PRESSURE_THRESHOLD * p.max()
+    peak = int(np.argmax(p))
+    zone = (p > PRESSURE_THRESHOLD * p[peak]) & (surface.node_normal @ surface.node_normal[peak] > 0.0)
     normal = surface.node_normal[zone].sum(axis=0)
     return x[keys[zone]].mean(axis=0), normal / max(np.linalg.norm(normal), 1e-300)
 
