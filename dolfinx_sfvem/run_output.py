@@ -264,20 +264,19 @@ class RunWriter:
             f.write_function(self.pressure.function, load)
         self.xdmf_started = True
 
-    def step(self, records: list[dict], wall: float, pressure: ContactPressure) -> None:
+    def step(self, records: list[dict], wall: float, pressure: ContactPressure, surface=None) -> None:
         """Write the converged step ``records[-1]``: XDMF (the displacement and ``pressure``'s nodal
         contact pressure, :data:`PRESSURE_FIELD`), checkpoint, a summary marked running
-        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and
-        ``contact_pressure_<load>.png`` of ``pressure`` (its contact pressure) if the step
-        reaches one of the load factors of ``pressure_at``."""
+        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and the
+        pictures of the contact pressure (:meth:`_pictures`; ``surface`` the problem's contact
+        checks) if the step reaches one of the load factors of ``pressure_at``."""
         load = records[-1]["load"]
-        method = self.disc.method
         due = [t for t in self.pressure_at if load >= t - LOAD_TOL]
         if due:
             self.pressure_at = self.pressure_at[len(due):]
-            if self.comm.rank == 0 and self.disc.gdim == 2:
-                post.plot_contact_pressure(self.out / f"contact_pressure_{load:.4g}.png", pressure,
-                                           title=f"{method}: contact pressure at load factor {load:.4g}")
+            u = post.gather_to_root(self.comm, *self.disc.output_point_displacements(self.x),
+                                    self.disc.output_mesh.n_points)
+            self._pictures(u, pressure, surface, load, final=False)
         self.u_p2 = self.disc.output_function(self.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
         self.pressure.set(pressure)
@@ -305,28 +304,37 @@ class RunWriter:
         (``u`` the displacements of the output mesh's points on rank 0, ``pressure`` the contact
         pressure, at the nodes of ``surface``, the problem's contact checks)."""
         if self.comm.rank == 0:
-            method = self.disc.method
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
-            load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
-            if self.disc.gdim == 3:
-                self._pictures_3d(u, pressure, surface)
+        load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
+        self._pictures(u, pressure, surface, load, final=True)
+
+    def _pictures(self, u: np.ndarray | None, pressure: ContactPressure, surface, load: float, final: bool) -> None:
+        """The pictures of a state at load factor ``load`` (drawn on rank 0; ``u`` the displacements of
+        the output mesh's points there). At the end of the run (``final``): in 2D ``deformed.png``,
+        ``uy.png`` and ``contact_pressure.png`` (:mod:`.post`), in 3D ``final-deformed.png``,
+        ``final-clip.png`` and ``final-pressure.png`` (:func:`.pictures3d.write_pictures_3d`, when
+        PyVista is installed); at a load of ``pressure_at``: ``contact_pressure_<load>.png`` in 2D,
+        ``contact_pressure_<load>-{deformed,clip,pressure}.png`` in 3D."""
+        if self.comm.rank != 0:
+            return
+        name = "contact_pressure" if final else f"contact_pressure_{load:.4g}"
+        if self.disc.gdim == 3:
+            try:
+                from .pictures3d import write_pictures_3d
+            except ImportError:
                 return
+            solids = [tag for tag in np.unique(self.disc.output_mesh.tags).tolist()
+                      if not self.disc.materials[tag].is_medium]
+            checked = pressure.pressure.size > 0
+            write_pictures_3d(self.out, "final" if final else name, self.disc.output_mesh, u, solids,
+                              surface=surface if checked else None, pressure=pressure.pressure if checked else None)
+            return
+        method = self.disc.method
+        if final:
             post.plot_deformed_polygons(self.out / "deformed.png", self.disc.output_mesh, u,
                                         title=f"{method}: load factor {load:.3g}")
             post.plot_deformed_polygons(self.out / "uy.png", self.disc.output_mesh, u, node_values=u[:, 1],
                                         title="u_y")
-            post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
-                                       title=f"{method}: contact pressure at load factor {load:.3g}")
-
-    def _pictures_3d(self, u: np.ndarray, pressure: ContactPressure, surface) -> None:
-        """The pictures of the last state of a 3D run (rank 0): ``pictures3d.write_pictures_3d`` of
-        the deformed solids, a clip and the contact pressure, when that module is installed."""
-        try:
-            from .pictures3d import write_pictures_3d
-        except ImportError:
-            return
-        solids = [tag for tag in np.unique(self.disc.output_mesh.tags).tolist() if not self.disc.materials[tag].is_medium]
-        checked = pressure.pressure.size > 0
-        write_pictures_3d(self.out, "final", self.disc.output_mesh, u, solids, surface=surface if checked else None,
-                          pressure=pressure.pressure if checked else None)
+        post.plot_contact_pressure(self.out / f"{name}.png", pressure,
+                                   title=f"{method}: contact pressure at load factor {load:{'.3g' if final else '.4g'}}")

@@ -163,7 +163,8 @@ def test_output_on_two_ranks_equals_one(box_grid, tmp_path):
 
 @pytest.mark.mpi
 def test_pressure_picture_of_a_run(box_grid, tmp_path):
-    """The run's last pictures: final-pressure.png shows the contact pressure (not blank, in colour)."""
+    """The pictures of the last state and of a load of ``pressure_at``: final-pressure.png and
+    contact_pressure_0.5-pressure.png show the contact pressure (not blank, in colour)."""
     pictures3d = pytest.importorskip("dolfinx_sfvem.pictures3d")
     reason = pictures3d.offscreen_unavailable()
     if reason is not None:
@@ -171,8 +172,10 @@ def test_pressure_picture_of_a_run(box_grid, tmp_path):
     plt = pytest.importorskip("matplotlib.pyplot")
     problem = sandwich(box_grid, "hexahedron", n=2, rollers=False)
     tmp = problem.comm.bcast(tmp_path if problem.comm.rank == 0 else None)
-    assert problem.solve(steps=1, out=tmp).converged
+    assert problem.solve(steps=2, out=tmp, pressure_at=(0.5,)).converged
     if problem.comm.rank == 0:
-        image = plt.imread(tmp / "final-pressure.png")[..., :3]
-        assert image.std() > 0.05
-        assert ((image.max(axis=2) - image.min(axis=2)) > 0.3).mean() > 0.01     # the colour map's pixels
+        for name in ("final-pressure.png", "contact_pressure_0.5-pressure.png"):
+            image = plt.imread(tmp / name)[..., :3]
+            assert image.std() > 0.05, f"{name} is blank"
+            assert ((image.max(axis=2) - image.min(axis=2)) > 0.3).mean() > 0.01, name    # the colour map's pixels
+        assert (tmp / "contact_pressure_0.5-clip.png").is_file() and not (tmp / "contact_pressure_1-pressure.png").exists()

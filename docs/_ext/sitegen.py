@@ -69,13 +69,16 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
                                           "at load 0.807, the last converged step (the medium inverts beyond)"),
         ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium "
                                       "squeezed between the beams"),
+        ("cbox3d-point-hex-pressure.png", "The contact pressure at load 0.807 on the upper beam's lower face (the "
+                                          "surface where it is largest), seen from below: highest at the tip"),
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
     "hertz3d": [
         ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
                                               "against indentation and pressure against radius, with Hertz's; the "
                                               "contact radius is below one element"),
-        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
+        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block's top at load 0.7125, seen from "
+                                                "above (the quarter model's corner is the sphere's axis)"),
         ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
     ],
     "thick_sphere": [
