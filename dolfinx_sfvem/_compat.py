@@ -214,6 +214,14 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
         return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
 
 
+def scalar_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+    """Scalar Lagrange space of ``degree``."""
+    with compiling():
+        if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
+            return dolfinx.fem.functionspace(mesh, ("Lagrange", degree))
+        return dolfinx.fem.FunctionSpace(mesh, ("Lagrange", degree))
+
+
 def interpolation_matrix(V_from: dolfinx.fem.FunctionSpace, V_to: dolfinx.fem.FunctionSpace) -> PETSc.Mat:
     """The assembled matrix that interpolates a function of ``V_from`` into ``V_to``
     (rows: the dofs of V_to, columns: those of V_from; block size of the spaces)."""

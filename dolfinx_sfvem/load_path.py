@@ -141,7 +141,7 @@ class LoadPath:
                             self._progress(rec)
                             self._warn_instability(rec)
                             if writer is not None:
-                                writer.step(self.records, self._wall(), solver.contact[1])
+                                writer.step(self.records, self._wall(), solver.contact[1], p.boundary)
                             if self.control.passed(rec):
                                 break
                             if adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):

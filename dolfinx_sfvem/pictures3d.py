@@ -7,7 +7,8 @@ Three views of a deformed :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (docs/guide
 - ``<prefix>-clip.png``: the mesh cut by a plane through the contact zone, the solids coloured by
   region and the medium as a translucent wireframe, so the gap between the solids shows;
 - ``<prefix>-pressure.png``: the contact pressure on the solids' surface where it exceeds 1 % of
-  its largest value, seen from the side it pushes on, the rest of the solids translucent.
+  its largest value, seen from the side it pushes on (of the surface where it is largest), the
+  rest of the solids translucent.
 
 Rendering is PyVista on VTK's wheels (pinned in pyproject.toml). Offscreen, without a display:
 VTK's EGL window on Mesa (Debian: libegl1, libegl-mesa0, libgl1-mesa-dri; installed by the
@@ -86,17 +87,33 @@ def _grid(mesh, x: np.ndarray, cells: np.ndarray):
     return pyvista.UnstructuredGrid(conn.ravel(), np.full(cells.shape[0], vtk_type, dtype=np.uint8), x)
 
 
+def _medium_normals(surface) -> np.ndarray:
+    """Unit reference outward normals (n_nodes, 3) of the surface's nodes from its sub-triangles that
+    face the medium alone (0 where none does): the direction the contact pressure acts along, which
+    the faces on symmetry planes and outer sides would tilt (the surface's ``node_normal``)."""
+    facing = surface.face_faces_medium[surface.triangle_face]
+    normal = np.zeros((surface.X.shape[0], 3))
+    for corner in range(3):
+        np.add.at(normal, surface.triangles[facing, corner], surface.triangle_normal[facing])
+    return normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+
+
 def _contact_view(mesh, x, surface, pressure):
-    """Where the contact is and its normal: the centre of the contact zone (the surface's vertices with
-    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal
-    (None, None without a pressure)."""
+    """Where the contact is and its normal: the centre of the contact zone on the surface that carries
+    the largest pressure (the surface's vertices with pressure above :data:`PRESSURE_THRESHOLD` of the
+    largest whose normal towards the medium is within 90° of that where it is largest) and their mean
+    reference normal towards the medium (None, None without a pressure). The zone lies on both
+    surfaces pressed together (two bodies', or two of one body's in self-contact), whose normals are
+    opposite: taken together, their mean normal would be arbitrary."""
     if surface is None or pressure is None or not np.any(pressure > 0.0):
         return None, None
     keys = surface.node_keys
     vertex = keys < mesh.points.shape[0]
     p = np.where(vertex, pressure, 0.0)
-    zone = p > PRESSURE_THRESHOLD * p.max()
-    normal = surface.node_normal[zone].sum(axis=0)
+    peak = int(np.argmax(p))
+    normals = _medium_normals(surface)
+    zone = (p > PRESSURE_THRESHOLD * p[peak]) & (normals @ normals[peak] > 0.0)
+    normal = normals[zone].sum(axis=0)
     return x[keys[zone]].mean(axis=0), normal / max(np.linalg.norm(normal), 1e-300)
 
 
