@@ -28,6 +28,7 @@ import contextlib
 import ctypes
 import functools
 import inspect
+import pathlib
 
 with contextlib.suppress(ImportError):
     import dolfinx_solver  # noqa: F401  (the dolfinx-solver-* wheels: MPI before the bindings)
@@ -59,6 +60,12 @@ DOLFINX_VERSION = dolfinx.__version__
 
 #: PETSc InsertMode values (petscsystypes.h)
 INSERT_VALUES = 1
+
+
+def jit_cache_dir() -> pathlib.Path:
+    """The directory of DOLFINx's JIT cache (its ``cache_dir`` parameter or option)."""
+    options = dolfinx.jit.get_options() if hasattr(dolfinx.jit, "get_options") else dolfinx.jit.get_parameters()
+    return pathlib.Path(options["cache_dir"]).expanduser()
 
 
 # --------------------------------------------------------------------------- mesh

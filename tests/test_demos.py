@@ -160,7 +160,6 @@ def main(argv):
 sys.exit(_common.exit_code(main))
 """)
     command = [*mpi_launcher.command(2), sys.executable, str(script)]
-    # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
     proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=job_environment())
     assert proc.returncode != 0
     assert "rank 1 of 2: " + message.format(script=script) in proc.stderr, proc.stdout + proc.stderr
@@ -200,3 +199,54 @@ def test_gamma_start_reaches_the_path(tmp_path):
     assert plain.returncode == 0, report(plain)
     params = read_summary(tmp_path / "plain").parameters
     assert "gamma_start" not in params and "gamma_continuation" not in params
+
+
+@pytest.mark.parametrize("status", [1, 7])
+def test_a_library_exit_still_leaves_a_message(tmp_path, status):
+    """A compiled library that ends the process with C's exit() inside a demo's main (no Python
+    exception, no traceback) still leaves a message on stderr: where Python was (the function
+    names of the stack) and the run's last phase; the exit status stays the library's."""
+    script = tmp_path / "library_exits.py"
+    script.write_text(f"""import ctypes, sys
+sys.path.insert(0, {str(DEMOS)!r})
+import _common
+from dolfinx_sfvem import last_word
+
+def deep_inside_a_library():
+    ctypes.CDLL(None).exit({status})
+
+def main(argv):
+    print("started", flush=True)
+    last_word.phase("the load step after load 0.25 (2 converged steps)")
+    deep_inside_a_library()
+    return 0
+
+sys.exit(_common.exit_code(main))
+""")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600,
+                          env=job_environment())
+    assert proc.returncode == status, report(proc)
+    assert "error: the process is ending inside a compiled library's call to exit()" in proc.stderr, report(proc)
+    assert "last phase of the run: the load step after load 0.25 (2 converged steps)" in proc.stderr
+    assert "deep_inside_a_library" in proc.stderr and "in main" in proc.stderr
+
+
+def test_a_normal_end_has_no_last_word(tmp_path):
+    """The backstop stays silent when Python ends the process: a return code, an uncaught error."""
+    script = tmp_path / "normal_end.py"
+    script.write_text(f"""import sys
+sys.path.insert(0, {str(DEMOS)!r})
+import _common
+
+def main(argv):
+    if argv and argv[0] == "raise":
+        raise KeyboardInterrupt
+    return int(argv[0]) if argv else 0
+
+sys.exit(_common.exit_code(main, sys.argv[1:]))
+""")
+    for args, code in (([], 0), (["1"], 1), (["raise"], None)):
+        proc = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=600,
+                              env=job_environment())
+        assert code is None or proc.returncode == code, report(proc)
+        assert "ending inside a compiled library" not in proc.stderr, report(proc)
