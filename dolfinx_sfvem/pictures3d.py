@@ -36,6 +36,8 @@ WINDOW_SIZE = (1200, 900)
 PRESSURE_THRESHOLD = 0.01
 #: the solid regions' colours in the cut (light, so the edges show)
 REGION_COLOURS = ("#8fc1a9", "#e0b97a", "#a9b8d9", "#d99a9a", "#c4c4c4")
+#: colour of the third medium's edges in the clipped view
+MEDIUM_COLOUR = "#3060b0"
 #: DOLFINx's vertex order -> VTK's (the hexahedron's faces cyclic)
 VTK_CELLS = {"tetrahedron": (10, [0, 1, 2, 3]), "hexahedron": (12, [0, 1, 3, 2, 4, 5, 7, 6])}
 
@@ -199,15 +201,18 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     # the clip through the contact zone
     plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
     clipped = solids.clip(normal=normal, origin=origin, crinkle=False)
+    key = []
     for k, tag in enumerate(sorted(set(int(t) for t in tags[solid]))):
         part = clipped.threshold((tag - 0.5, tag + 0.5), scalars="region") if clipped.n_cells else clipped
         if part.n_cells:
-            plotter.add_mesh(part, color=REGION_COLOURS[k % len(REGION_COLOURS)], show_edges=True,
-                             edge_color="#404040", line_width=0.5, label=f"solid, region {tag}")
+            colour = REGION_COLOURS[k % len(REGION_COLOURS)]
+            plotter.add_mesh(part, color=colour, show_edges=True, edge_color="#404040", line_width=0.5, lighting=False)
+            key.append((f"solid, region {tag}", colour))
     if medium.n_cells:
         plotter.add_mesh(medium.clip(normal=normal, origin=origin, crinkle=False), style="wireframe",
-                         color="#3060b0", opacity=0.5, line_width=1, label="third medium")
-    plotter.add_legend(bcolor="white", face="rectangle", size=(0.24, 0.12), loc="lower right")
+                         color=MEDIUM_COLOUR, opacity=0.5, line_width=1)
+        key.append(("third medium (edges)", MEDIUM_COLOUR))
+    _add_key(plotter, key)
     plotter.add_title(f"{prefix}: cut through the contact, normal {_vector(normal)}", font_size=14)
     plotter.camera_position = [tuple(origin + 4.0 * normal * _size(x)), tuple(origin), _up(normal)]
     plotter.reset_camera()
@@ -243,6 +248,14 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     plotter.add_axes()
     save(plotter, "pressure")
     return paths
+
+
+def _add_key(plotter, key: list[tuple[str, str]]) -> None:
+    """A colour key in the lower right corner, one line of text per (label, colour), at a fixed
+    font size inside the window (VTK's legend box scaled its text beyond the window's edge)."""
+    for i, (label, colour) in enumerate(reversed(key)):
+        plotter.add_text(label, position=(int(0.72 * WINDOW_SIZE[0]), 24 + 30 * i), font_size=12,
+                         color=colour)
 
 
 def _vector(v: np.ndarray) -> str:

@@ -40,6 +40,7 @@ def test_pictures(box_grid, tmp_path, cell):
         image = plt.imread(path)[..., :3]
         assert image.shape[:2] == (WINDOW_SIZE[1], WINDOW_SIZE[0])
         assert image.std() > 0.05, f"{path.name} is blank"
+        assert (image[:, -3:] > 0.95).all(), f"{path.name}: something drawn across the window's right edge"
     # coloured pixels (saturation) in the pressure picture: the colour map, not only grey
     image = plt.imread(paths[2])[..., :3]
     saturation = image.max(axis=2) - image.min(axis=2)
