@@ -718,6 +718,7 @@ def global_dofs(cells) -> tuple[list[np.ndarray], np.ndarray]:
 
 
 octree_polyhedra_fixture = shared(octree_polyhedra)
+prism_fixture = shared(prism)
 global_dofs_fixture = shared(global_dofs)
 
 

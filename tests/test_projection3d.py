@@ -137,6 +137,15 @@ def test_bad_input(polyhedra):
         polyhedron_projections(points, faces, l_max=4)
 
 
+def test_flat_cell_is_refused(prism):
+    """A square slab 1 x 1 x 0.001: its in-plane modes fall below RANK_TOL next to the through-thickness
+    ones (sigma_7 / sigma_max ~ t^2), a clear error; at 1 x 1 x 0.1 it is an ordinary cell."""
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    assert polyhedron_projections(*prism(square, 0.1)).l == 5
+    with pytest.raises(ValueError, match="no l <= l_max=10 is sufficient: [0-9]+ zero-strain modes"):
+        polyhedron_projections(*prism(square, 1e-3))
+
+
 def mesh_arrays(cells):
     """The PolyhedronMesh CSR arrays (POLY-INTERFACES.md) of polyhedra that share faces by position."""
     keys: dict = {}
