@@ -492,18 +492,22 @@ def polyhedron_projections(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike]
 def interpolation_dofs(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike],
                        function: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]],
                        degree: int) -> npt.NDArray[np.float64]:
-    """The DOFs v~ (n_d,) of a function: values at the vertices and edge midpoints, face and cell
-    means with rules exact for ``degree`` (exact DOFs of a polynomial of that degree).
+    """The DOFs v~ of a function: values at the vertices and edge midpoints, face and cell means
+    with rules exact for ``degree`` (exact DOFs of a polynomial of that degree).
 
-    ``function`` maps points (n, 3) to values (n,).
+    ``function`` maps points (n, 3) to values (n,), or (n, k) for k components; the result is
+    (n_d,), or (k, n_d).
     """
     points = np.asarray(points, dtype=np.float64)
     edges = _edges(*faces_csr(faces))
     x_f, w_f, face = face_quadrature(points, faces, degree)
     x_c, w_c = polyhedron_quadrature(points, faces, degree)
-    face_means = np.bincount(face, w_f * function(x_f)) / np.bincount(face, w_f)
-    return np.concatenate([function(points), function(points[edges].mean(axis=1)), face_means,
-                           [w_c @ function(x_c) / w_c.sum()]])
+    on_faces, in_cell = function(x_f), function(x_c)
+    areas = np.bincount(face, w_f)
+    face_means = np.stack([np.bincount(face, w_f * column) / areas for column in np.atleast_2d(on_faces.T)], axis=-1)
+    dofs = np.concatenate([np.atleast_2d(function(points).T).T, np.atleast_2d(function(points[edges].mean(axis=1)).T).T,
+                           face_means, np.atleast_2d(w_c @ in_cell / w_c.sum())])
+    return dofs.T if np.ndim(on_faces) == 2 else dofs[:, 0]
 
 
 # --------------------------------------------------------------------------- many polyhedra

@@ -25,7 +25,7 @@ def stiffness(name, polyhedra):
 
 def vector_dofs(points, faces, u, degree=1):
     """DOFs [u_x~, u_y~, u_z~] of a vector field u: (n, 3) -> (n, 3)."""
-    return np.concatenate([interpolation_dofs(points, faces, lambda x, c=c: u(x)[:, c], degree) for c in range(3)])
+    return interpolation_dofs(points, faces, u, degree).ravel()
 
 
 def stress(strain):
