@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 import numpy.typing as npt
+from numba.typed import List
 
 from .monomials import evaluate_monomials, exponents, monomial_index, n_monomials, polygon_monomial_integrals
 from .monomials3d import evaluate_monomials3, exponents3, monomial_index3, n_monomials3
@@ -491,15 +492,232 @@ def polyhedron_projections(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike]
 def interpolation_dofs(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike],
                        function: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]],
                        degree: int) -> npt.NDArray[np.float64]:
-    """The DOFs v~ (n_d,) of a function: values at the vertices and edge midpoints, face and cell
-    means with rules exact for ``degree`` (exact DOFs of a polynomial of that degree).
+    """The DOFs v~ of a function: values at the vertices and edge midpoints, face and cell means
+    with rules exact for ``degree`` (exact DOFs of a polynomial of that degree).
 
-    ``function`` maps points (n, 3) to values (n,).
+    ``function`` maps points (n, 3) to values (n,), or (n, k) for k components; the result is
+    (n_d,), or (k, n_d).
     """
     points = np.asarray(points, dtype=np.float64)
     edges = _edges(*faces_csr(faces))
     x_f, w_f, face = face_quadrature(points, faces, degree)
     x_c, w_c = polyhedron_quadrature(points, faces, degree)
-    face_means = np.bincount(face, w_f * function(x_f)) / np.bincount(face, w_f)
-    return np.concatenate([function(points), function(points[edges].mean(axis=1)), face_means,
-                           [w_c @ function(x_c) / w_c.sum()]])
+    on_faces, in_cell = function(x_f), function(x_c)
+    areas = np.bincount(face, w_f)
+    face_means = np.stack([np.bincount(face, w_f * column) / areas for column in np.atleast_2d(on_faces.T)], axis=-1)
+    dofs = np.concatenate([np.atleast_2d(function(points).T).T, np.atleast_2d(function(points[edges].mean(axis=1)).T).T,
+                           face_means, np.atleast_2d(w_c @ in_cell / w_c.sum())])
+    return dofs.T if np.ndim(on_faces) == 2 else dofs[:, 0]
+
+
+# --------------------------------------------------------------------------- many polyhedra
+@numba.njit(cache=True)
+def local_polyhedron(points, face_offsets, face_vertices, cell_faces, cell_face_signs):
+    """One cell of a mesh in the element's input form: its vertices in increasing global number,
+    its faces (in the cell's order, outward) in that local numbering, its edges.
+
+    Parameters
+    ----------
+    points : (n_points, 3) float64
+    face_offsets, face_vertices : int64
+        CSR of the mesh's faces (global vertex numbers, each face stored once).
+    cell_faces : (n_f,) int64
+        The cell's faces.
+    cell_face_signs : (n_f,) int64
+        +1 if the stored face's normal points out of the cell, -1 if it is to be reversed.
+
+    Returns
+    -------
+    vertices : (n_v,) int64
+        Global numbers of the local vertices, increasing (so the local edge order, sorted pairs,
+        is the order of the global pairs too).
+    local_points : (n_v, 3) float64
+    offsets, local_faces : int64
+        CSR of the cell's faces in local numbers, outward.
+    edges : (n_e, 2) int64
+        Local edges, sorted pairs in lexicographic order.
+    """
+    n_f = cell_faces.size
+    offsets = np.zeros(n_f + 1, dtype=np.int64)
+    for i in range(n_f):
+        f = cell_faces[i]
+        offsets[i + 1] = offsets[i] + face_offsets[f + 1] - face_offsets[f]
+    global_faces = np.empty(offsets[-1], dtype=np.int64)
+    for i in range(n_f):
+        f = cell_faces[i]
+        face = face_vertices[face_offsets[f]:face_offsets[f + 1]]
+        N = face.size
+        for k in range(N):
+            global_faces[offsets[i] + k] = face[k] if cell_face_signs[i] > 0 else face[N - 1 - k]
+    vertices = np.unique(global_faces)
+    local_faces = np.searchsorted(vertices, global_faces)
+    n_v = vertices.size
+    keys = np.empty(offsets[-1], dtype=np.int64)
+    for i in range(n_f):
+        for k in range(offsets[i], offsets[i + 1]):
+            a = local_faces[k]
+            b = local_faces[k + 1] if k + 1 < offsets[i + 1] else local_faces[offsets[i]]
+            keys[k] = min(a, b) * n_v + max(a, b)
+    keys = np.unique(keys)
+    edges = np.empty((keys.size, 2), dtype=np.int64)
+    for e in range(keys.size):
+        edges[e, 0], edges[e, 1] = keys[e] // n_v, keys[e] % n_v
+    return vertices, points[vertices], offsets, local_faces, edges
+
+
+# status of a cell after the bulk build
+_OK, _FACE_BLIND, _SINGULAR_MASS, _RANK_DEFICIENT = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def _build_many(points, face_offsets, face_vertices, cell_offsets, cell_faces, cell_face_signs, cells, rule_points,
+                rule_weights, rule_offsets, l_from, l_to, k_max, tol):
+    """One compiled loop over the given cells: status, l, nullities, geometry and the per-cell
+    arrays (global vertices, Pi_nabla, Pi_m) as lists."""
+    n = cells.size
+    status = np.zeros(n, dtype=np.int64)
+    l = np.zeros(n, dtype=np.int64)
+    nullities = np.zeros((n, 2), dtype=np.int64)
+    volume = np.zeros(n)
+    centroid = np.zeros((n, 3))
+    diameter = np.zeros(n)
+    vertex_lists = List()
+    Pi_nabla_list = List()
+    Pi_m_list = List()
+    for j in range(n):
+        c = cells[j]
+        faces = cell_faces[cell_offsets[c]:cell_offsets[c + 1]]
+        signs = cell_face_signs[cell_offsets[c]:cell_offsets[c + 1]]
+        vertices, X, offsets, local_faces, edges = local_polyhedron(points, face_offsets, face_vertices, faces, signs)
+        degrees, volume[j], x_E, diameter[j], Pi_nabla, l[j], nullities[j, 0], nullities[j, 1], _, Pi_m = \
+            build_polyhedron(X, offsets, local_faces, edges, rule_points, rule_weights, rule_offsets, l_from[j],
+                             l_to[j], k_max, tol)
+        centroid[j] = x_E
+        if degrees.min() < 0:
+            status[j] = _FACE_BLIND
+        elif nullities[j, 0] == -1:
+            status[j] = _SINGULAR_MASS
+        elif nullities[j, 0] != 1 or nullities[j, 1] != 6:
+            status[j] = _RANK_DEFICIENT
+        vertex_lists.append(vertices)
+        Pi_nabla_list.append(Pi_nabla.ravel())
+        Pi_m_list.append(Pi_m.ravel())
+    return status, l, nullities, volume, centroid, diameter, vertex_lists, Pi_nabla_list, Pi_m_list
+
+
+def _csr(arrays) -> tuple[np.ndarray, np.ndarray]:
+    offsets = np.concatenate([[0], np.cumsum([a.size for a in arrays])]).astype(np.int64)
+    return offsets, (np.concatenate(list(arrays)) if len(arrays) else np.empty(0))
+
+
+@dataclass(frozen=True)
+class Projections3D:
+    """Pi^nabla_2 and Pi^0_l nabla of many polyhedra, flattened for compiled loops.
+
+    Cell j (0..n-1, in the order built) has the local vertices ``vertices_of(j)`` (global numbers,
+    increasing), n_d_j scalar DOFs in the order of the module docstring (its local edges are the
+    sorted pairs of local vertex numbers) and n_l_j = (l_j+1)(l_j+2)(l_j+3)/6 monomials.
+
+    Attributes
+    ----------
+    l : (n,) int64
+    volume : (n,) float64
+    centroid : (n, 3) float64
+    diameter : (n,) float64
+    vertex_offsets, vertices : int64
+        CSR of the cells' global vertex numbers.
+    Pi_nabla_offsets, Pi_nabla : Pi_nabla of cell j, (10, n_d_j) in C order.
+    Pi_m_offsets, Pi_m : Pi_m of cell j, (3, n_l_j, n_d_j) in C order.
+    """
+
+    l: npt.NDArray[np.int64]
+    volume: npt.NDArray[np.float64]
+    centroid: npt.NDArray[np.float64]
+    diameter: npt.NDArray[np.float64]
+    vertex_offsets: npt.NDArray[np.int64]
+    vertices: npt.NDArray[np.int64]
+    Pi_nabla_offsets: npt.NDArray[np.int64]
+    Pi_nabla: npt.NDArray[np.float64]
+    Pi_m_offsets: npt.NDArray[np.int64]
+    Pi_m: npt.NDArray[np.float64]
+
+    def vertices_of(self, j: int) -> npt.NDArray[np.int64]:
+        """Global vertex numbers of cell j, in local order."""
+        return self.vertices[self.vertex_offsets[j]:self.vertex_offsets[j + 1]]
+
+    def Pi_nabla_of(self, j: int) -> npt.NDArray[np.float64]:
+        """Pi_nabla of cell j, (10, n_d_j) (a view)."""
+        return self.Pi_nabla[self.Pi_nabla_offsets[j]:self.Pi_nabla_offsets[j + 1]].reshape(10, -1)
+
+    def Pi_m_of(self, j: int) -> npt.NDArray[np.float64]:
+        """Pi_m of cell j, (3, n_l_j, n_d_j) (a view)."""
+        block = self.Pi_m[self.Pi_m_offsets[j]:self.Pi_m_offsets[j + 1]]
+        return block.reshape(3, n_monomials3(int(self.l[j])), -1)
+
+    def histogram(self) -> dict[int, int]:
+        """Number of cells per degree l, {l: count}, increasing l."""
+        values, counts = np.unique(self.l, return_counts=True)
+        return {int(v): int(c) for v, c in zip(values, counts)}
+
+
+def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, face_vertices: npt.ArrayLike,
+                         cell_offsets: npt.ArrayLike, cell_faces: npt.ArrayLike, cell_face_signs: npt.ArrayLike,
+                         cells: npt.ArrayLike | None = None, l: int | None = None, l_min: int = L_MIN,
+                         l_max: int = L_MAX) -> Projections3D:
+    """Pi^nabla_2 and Pi^0_l nabla of the cells of a polyhedral mesh (one compiled loop).
+
+    The mesh arrays are those of ``PolyhedronMesh`` (POLY-INTERFACES.md): each face stored once
+    with global vertex numbers, the cells as CSR of faces with a sign per (cell, face), +1 when
+    the stored normal points out of the cell. The mesh is assumed valid (its constructor checks
+    it); what only the element can tell is checked here.
+
+    Parameters
+    ----------
+    cells : (n,) int, optional
+        The cells to build (default all); the result is indexed 0..n-1 in this order.
+    l : int, optional
+        One degree for all cells (must be sufficient); default the smallest sufficient per cell.
+    l_min, l_max : int
+        Range of the automatic choice.
+
+    Raises
+    ------
+    ValueError
+        Naming the first cell whose face cannot be seen, whose mass matrix is singular, or for
+        which no l (or the given l) is sufficient.
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    face_offsets = np.ascontiguousarray(face_offsets, dtype=np.int64)
+    face_vertices = np.ascontiguousarray(face_vertices, dtype=np.int64)
+    cell_offsets = np.ascontiguousarray(cell_offsets, dtype=np.int64)
+    cell_faces = np.ascontiguousarray(cell_faces, dtype=np.int64)
+    cell_face_signs = np.ascontiguousarray(cell_face_signs, dtype=np.int64)
+    cells = np.arange(cell_offsets.size - 1) if cells is None else np.ascontiguousarray(cells, dtype=np.int64)
+    if l is not None and (int(l) != l or not 1 <= l <= l_max):
+        raise ValueError(f"l must be an integer in [1, l_max={l_max}], got {l!r}")
+    l_from = np.full(cells.size, l_min if l is None else int(l), dtype=np.int64)
+    l_to = np.full(cells.size, l_max if l is None else int(l), dtype=np.int64)
+    table = triangle_rule_table(max(2 * int(l_to.max(initial=1)), int(l_to.max(initial=1)) + K_FACE_MAX))
+    if cells.size == 0:
+        empty = np.zeros(1, dtype=np.int64)
+        return Projections3D(np.empty(0, np.int64), np.empty(0), np.empty((0, 3)), np.empty(0), empty,
+                             np.empty(0, np.int64), empty, np.empty(0), empty, np.empty(0))
+    status, l_used, nullities, volume, centroid, diameter, vertex_lists, Pi_nabla_list, Pi_m_list = _build_many(
+        points, face_offsets, face_vertices, cell_offsets, cell_faces, cell_face_signs, cells, *table, l_from, l_to,
+        K_FACE_MAX, RANK_TOL)
+    failed = np.flatnonzero(status != _OK)
+    if failed.size:
+        j = int(failed[0])
+        c = int(cells[j])
+        if status[j] == _FACE_BLIND:
+            raise ValueError(f"cell {c}: a face where no projection of degree <= {K_FACE_MAX} sees all of its DOFs")
+        if status[j] == _SINGULAR_MASS:
+            raise ValueError(f"cell {c}: the P_{l_used[j]} monomial mass matrix is numerically singular")
+        what = f"l={l_used[j]} is rank-deficient" if l is not None else f"no l <= l_max={l_max} is sufficient"
+        raise ValueError(f"cell {c}: {what} ({nullities[j, 1]} zero-strain modes where 6 are expected, gradient "
+                         f"null space {nullities[j, 0]} where 1 is expected)")
+    vertex_offsets, vertices = _csr(vertex_lists)
+    Pi_nabla_offsets, Pi_nabla = _csr(Pi_nabla_list)
+    Pi_m_offsets, Pi_m = _csr(Pi_m_list)
+    return Projections3D(l_used, volume, centroid, diameter, vertex_offsets, vertices.astype(np.int64),
+                         Pi_nabla_offsets, Pi_nabla, Pi_m_offsets, Pi_m)

@@ -649,6 +649,79 @@ def _tetrahedron() -> tuple[np.ndarray, list[np.ndarray]]:
     return points, [np.array(f) for f in ([0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2])]
 
 
+def octree_polyhedra(n: int, refine) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+    """The unit cube as n^3 cubes, those whose centre satisfies ``refine`` split once into 8, as
+    polyhedra: a cube next to finer ones carries the hanging vertices on its edges and its faces
+    split into the finer cubes' faces (one level: 2:1 balanced by construction)."""
+    cubes = []
+    for i, j, k in np.ndindex(n, n, n):
+        lower, size = np.array([i, j, k]) / n, 1.0 / n
+        if refine(lower + size / 2):
+            cubes += [(lower + size / 2 * np.array(o), size / 2) for o in np.ndindex(2, 2, 2)]
+        else:
+            cubes.append((lower, size))
+    corners = np.unique(np.round([lo + s * np.array(o) for lo, s in cubes for o in np.ndindex(2, 2, 2)], 12), axis=0)
+    tol = 1e-9 / n
+
+    def loop(k, side, a, b, u0, v0, size):
+        """Mesh vertices on the boundary of the square {x_k = side, u in [u0, u0+size], v ...}, counter-clockwise
+        about e_a x e_b; and whether a vertex lies inside it."""
+        on = (np.abs(corners[:, k] - side) < tol) & (corners[:, a] > u0 - tol) & (corners[:, a] < u0 + size + tol) \
+            & (corners[:, b] > v0 - tol) & (corners[:, b] < v0 + size + tol)
+        rim = on & ((np.abs(corners[:, a] - u0) < tol) | (np.abs(corners[:, a] - u0 - size) < tol)
+                    | (np.abs(corners[:, b] - v0) < tol) | (np.abs(corners[:, b] - v0 - size) < tol))
+        angle = np.arctan2(corners[rim, b] - v0 - size / 2, corners[rim, a] - u0 - size / 2)
+        return np.flatnonzero(rim)[np.argsort(angle)], bool(np.any(on & ~rim))
+
+    cells = []
+    for lower, size in cubes:
+        faces = []
+        for k in range(3):
+            for side in (0, 1):
+                a, b = ((k + 1) % 3, (k + 2) % 3) if side == 1 else ((k + 2) % 3, (k + 1) % 3)
+                plane = lower[k] + side * size
+                face, split = loop(k, plane, a, b, lower[a], lower[b], size)
+                if not split:
+                    faces.append(face)
+                    continue
+                for du, dv in np.ndindex(2, 2):
+                    faces.append(loop(k, plane, a, b, lower[a] + du * size / 2, lower[b] + dv * size / 2, size / 2)[0])
+        used, local = np.unique(np.concatenate(faces), return_inverse=True)
+        offsets = np.cumsum([0] + [len(f) for f in faces])
+        cells.append((corners[used], [local[offsets[i]:offsets[i + 1]] for i in range(len(faces))]))
+    return cells
+
+
+def global_dofs(cells) -> tuple[list[np.ndarray], np.ndarray]:
+    """A global numbering of the scalar DOFs of polyhedra that share vertices, edges and faces by
+    position: per cell its global DOF indices in the element's local order (vertices, edges,
+    faces, cell), and the DOF locations (n, 3) (vertex, edge midpoint, face centroid, cell
+    centroid: a linear field's DOFs are its values there)."""
+    from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry
+
+    keys: dict = {}
+    locations = []
+    cell_dofs = []
+    for c, (points, faces) in enumerate(cells):
+        g = polyhedron_geometry(points, faces)
+        vertex = [tuple(np.round(p, 11)) for p in points]
+        local = [(key, np.array(key)) for key in vertex]
+        local += [(frozenset((vertex[i], vertex[j])), points[[i, j]].mean(axis=0)) for i, j in polyhedron_edges(faces)]
+        local += [(frozenset(vertex[i] for i in face), g.face_centroids[f]) for f, face in enumerate(faces)]
+        local.append((("cell", c), g.centroid))
+        for key, x in local:
+            if key not in keys:
+                keys[key] = len(keys)
+                locations.append(x)
+        cell_dofs.append(np.array([keys[key] for key, _ in local]))
+    return cell_dofs, np.array(locations)
+
+
+octree_polyhedra_fixture = shared(octree_polyhedra)
+prism_fixture = shared(prism)
+global_dofs_fixture = shared(global_dofs)
+
+
 #: name -> (points, outward faces); octree cubes with 1..6 refined neighbours
 POLYHEDRA = {
     "cube": refined_cube(()),

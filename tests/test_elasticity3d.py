@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem.elasticity import isotropic_elasticity, linear_elastic_stiffness_3d
-from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry, polyhedron_quadrature
+from dolfinx_sfvem.polyhedron import polyhedron_geometry, polyhedron_quadrature
 from dolfinx_sfvem.projection3d import interpolation_dofs
 
 YOUNG, POISSON = 7.0, 0.3
@@ -25,7 +25,7 @@ def stiffness(name, polyhedra):
 
 def vector_dofs(points, faces, u, degree=1):
     """DOFs [u_x~, u_y~, u_z~] of a vector field u: (n, 3) -> (n, 3)."""
-    return np.concatenate([interpolation_dofs(points, faces, lambda x, c=c: u(x)[:, c], degree) for c in range(3)])
+    return interpolation_dofs(points, faces, u, degree).ravel()
 
 
 def stress(strain):
@@ -110,7 +110,7 @@ def test_hooke_voigt_matrix():
         isotropic_elasticity(0.0, 0.3)
 
 
-def test_patch_test_across_a_hanging_face(polyhedra, refined_cube):
+def test_patch_test_across_a_hanging_face(refined_cube, global_dofs):
     """An octree patch: the unit cube with its +x face split, glued to the four cubes of half size
     beyond it (the hanging vertices and the split face are shared DOFs). With the DOFs on the
     outer boundary of [0, 1.5] x [0, 1]^2 taken from a linear field, the assembled system gives
@@ -123,37 +123,16 @@ def test_patch_test_across_a_hanging_face(polyhedra, refined_cube):
             cells.append((0.5 * small_points + [1.0, y, z], small_faces))
     rng = np.random.default_rng(4)
     A, b = rng.standard_normal((3, 3)), rng.standard_normal(3)
-
-    def linear(x):
-        return x @ A.T + b
-
-    keys: dict = {}
-    locations = []
-    cell_dofs = []
-    for c, (points, faces) in enumerate(cells):
-        vertex_keys = [tuple(np.round(p, 12)) for p in points]
-        local = [(key, np.array(key)) for key in vertex_keys]
-        local += [(frozenset((vertex_keys[i], vertex_keys[j])), points[[i, j]].mean(axis=0))
-                  for i, j in polyhedron_edges(faces)]
-        g = polyhedron_geometry(points, faces)
-        local += [(frozenset(vertex_keys[i] for i in face), g.face_centroids[f]) for f, face in enumerate(faces)]
-        local += [(("cell", c), g.centroid)]
-        for key, x in local:
-            if key not in keys:
-                keys[key] = len(keys)
-                locations.append(x)
-        cell_dofs.append(np.array([keys[key] for key, _ in local]))
-    locations = np.array(locations)
-    n = len(keys)
+    cell_dofs, locations = global_dofs(cells)
+    n = len(locations)
     K = np.zeros((3 * n, 3 * n))
     for (points, faces), dofs in zip(cells, cell_dofs):
         Ke, _ = linear_elastic_stiffness_3d(points, faces, YOUNG, POISSON)
         index = np.concatenate([dofs + c * n for c in range(3)])
         K[np.ix_(index, index)] += Ke
     upper = np.array([1.5, 1.0, 1.0])
-    on_boundary = np.any(np.isclose(locations, 0.0) | np.isclose(locations, upper), axis=1)
-    on_boundary = np.tile(on_boundary, 3)
-    exact = linear(locations).T.ravel()  # the DOFs of a linear field are its values at these points
+    on_boundary = np.tile(np.any(np.isclose(locations, 0.0) | np.isclose(locations, upper), axis=1), 3)
+    exact = (locations @ A.T + b).T.ravel()  # the DOFs of a linear field are its values at these points
     u = exact.copy()
     inner = ~on_boundary
     # inner: the split face's centre vertex, its 4 cross edges and the edge from it along x, the 4 quarter

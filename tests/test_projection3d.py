@@ -10,7 +10,8 @@ import pytest
 
 from dolfinx_sfvem.monomials3d import exponents3
 from dolfinx_sfvem.projection import RANK_TOL, null_space_dimensions, pi_nabla_2, polygon_geometry
-from dolfinx_sfvem.projection3d import face_h1_projection, interpolation_dofs, polyhedron_projections
+from dolfinx_sfvem.projection3d import (build_projections_3d, face_h1_projection, interpolation_dofs,
+                                        polyhedron_projections)
 
 
 class Quadratic3D:
@@ -134,3 +135,63 @@ def test_bad_input(polyhedra):
         polyhedron_projections(points, faces, l=3)
     with pytest.raises(ValueError, match="no l <= l_max=4 is sufficient"):
         polyhedron_projections(points, faces, l_max=4)
+
+
+def test_flat_cell_is_refused(prism):
+    """A square slab 1 x 1 x 0.001: its in-plane modes fall below RANK_TOL next to the through-thickness
+    ones (sigma_7 / sigma_max ~ t^2), a clear error; at 1 x 1 x 0.1 it is an ordinary cell."""
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    assert polyhedron_projections(*prism(square, 0.1)).l == 5
+    with pytest.raises(ValueError, match="no l <= l_max=10 is sufficient: [0-9]+ zero-strain modes"):
+        polyhedron_projections(*prism(square, 1e-3))
+
+
+def mesh_arrays(cells):
+    """The PolyhedronMesh CSR arrays (POLY-INTERFACES.md) of polyhedra that share faces by position."""
+    keys: dict = {}
+    stored: dict = {}
+    face_lists, cell_faces, signs, offsets = [], [], [], [0]
+    for points, faces in cells:
+        numbers = [keys.setdefault(tuple(np.round(p, 11)), len(keys)) for p in points]
+        for face in faces:
+            global_face = [numbers[i] for i in face]
+            key = frozenset(global_face)
+            if key not in stored:
+                stored[key] = len(face_lists)
+                face_lists.append(global_face)
+                signs.append(1)
+            else:  # the neighbour passes the face the other way round
+                first = face_lists[stored[key]]
+                k = first.index(global_face[0])
+                assert global_face == [first[(k - i) % len(first)] for i in range(len(first))]
+                signs.append(-1)
+            cell_faces.append(stored[key])
+        offsets.append(len(cell_faces))
+    points = np.array(sorted(keys, key=keys.get))
+    face_offsets = np.cumsum([0] + [len(f) for f in face_lists])
+    return points, face_offsets, np.concatenate(face_lists), np.array(offsets), np.array(cell_faces), np.array(signs)
+
+
+def test_bulk_build_equals_per_polyhedron_build(octree_polyhedra):
+    """The mesh loop gives each cell what polyhedron_projections gives its (points, outward faces)."""
+    cells = octree_polyhedra(2, lambda c: bool(np.all(c < 0.5)))
+    points, face_offsets, face_vertices, cell_offsets, cell_faces, signs = mesh_arrays(cells)
+    chosen = np.array([0, 3, 8, 14, 9])
+    B = build_projections_3d(points, face_offsets, face_vertices, cell_offsets, cell_faces, signs, cells=chosen)
+    assert sum(B.histogram().values()) == chosen.size
+    for j, c in enumerate(chosen):
+        vertices = B.vertices_of(j)
+        assert np.all(np.diff(vertices) > 0)
+        local = {v: i for i, v in enumerate(vertices)}
+        faces = []
+        for f, s in zip(cell_faces[cell_offsets[c]:cell_offsets[c + 1]], signs[cell_offsets[c]:cell_offsets[c + 1]]):
+            face = [local[v] for v in face_vertices[face_offsets[f]:face_offsets[f + 1]]]
+            faces.append(np.array(face if s > 0 else face[::-1]))
+        P = polyhedron_projections(points[vertices], faces)
+        assert B.l[j] == P.l and B.volume[j] == pytest.approx(P.volume)
+        np.testing.assert_allclose(B.Pi_nabla_of(j), P.Pi_nabla, rtol=0, atol=1e-12 * np.abs(P.Pi_nabla).max())
+        np.testing.assert_allclose(B.Pi_m_of(j), P.Pi_m, rtol=0, atol=1e-12 * np.abs(P.Pi_m).max())
+        # the same polyhedron as given, in its own numbering: the same l and volume
+        assert polyhedron_projections(*cells[c]).l == P.l
+    with pytest.raises(ValueError, match="cell 0: l=3 is rank-deficient"):
+        build_projections_3d(points, face_offsets, face_vertices, cell_offsets, cell_faces, signs, l=3)
