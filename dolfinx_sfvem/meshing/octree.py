@@ -61,8 +61,8 @@ class OctreeMesh:
     parent : (m,) int, optional
         The leaf of the mesh this one was refined from that contains each leaf (default: itself).
 
-    The leaves must tile the box (not checked here: made by :func:`octree_box` and
-    :meth:`refine`).
+    The leaves must tile the box (not checked here: :func:`octree_box` and :meth:`refine` make
+    them so).
     """
 
     def __init__(self, lower: npt.ArrayLike, upper: npt.ArrayLike, n: npt.ArrayLike, level: npt.ArrayLike,
@@ -311,8 +311,8 @@ def _face_vertex_lists(corners: np.ndarray, point_keys: np.ndarray, extent: np.n
 
 def octree_box(lower: npt.ArrayLike, upper: npt.ArrayLike, n: int | npt.ArrayLike) -> OctreeMesh:
     """An octree mesh of the box [lower, upper] with ``n`` (an int or one per axis) base boxes per
-    axis, all of level 0; refine it with :meth:`OctreeMesh.refine`, read it as polyhedra with
-    :meth:`OctreeMesh.polyhedra`."""
+    axis, all of level 0; refine it with :meth:`OctreeMesh.refine`, and read it as polyhedra
+    with the method :meth:`OctreeMesh.polyhedra`."""
     lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     n = np.broadcast_to(np.asarray(n, dtype=np.int64), (3,))
     if lower.shape != (3,) or upper.shape != (3,) or np.any(upper <= lower):
