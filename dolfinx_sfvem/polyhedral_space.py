@@ -18,9 +18,10 @@ spokes to the centres) are *not* unknowns: the numbering built here holds the SF
 Each polyhedron's tetrahedra are owned by one rank (recursive coordinate bisection of the cell
 centroids), so the element loops never cross ranks.
 
-The fan needs every polyhedron star-shaped with respect to its centroid and every face with
-respect to its centroid (convex cells, octree cells with hanging vertices, prisms over convex
-polygons, Voronoi cells); a cell that is not raises ValueError naming it.
+The fans start from the centroids where these see the whole face or cell (convex cells, octree
+cells with hanging vertices, prisms over convex polygons, Voronoi cells); elsewhere from the centre
+of the largest disc or ball inside the kernel of the face or cell (the points that see all of it).
+A face or cell that is not star-shaped (empty kernel) raises ValueError naming the cell.
 
 Local numbering: SFVEM *nodes* owned first, then ghosts; the unknowns are blocked by three
 components, unknown ``3 * node + i`` for component ``i``. Node keys do not depend on the partition:
@@ -37,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.optimize import linprog
 
 import dolfinx
 import dolfinx.fem
@@ -68,7 +70,8 @@ class FanMesh(typing.NamedTuple):
     Attributes
     ----------
     nodes : (n_points + n_faces + n_cells, 3) float64
-        The mesh points, then the face centroids, then the cell centroids.
+        The mesh points, then the face centres, then the cell centres (the centroids, or kernel
+        centres where the centroid does not see the whole face or cell).
     tetrahedra : (n_tet, 4) int64
         (cell centre, face centre, a, b) for every side (a, b) of every face of every cell, in
         cell order, positively oriented.
@@ -88,50 +91,86 @@ class FanMesh(typing.NamedTuple):
     triangle_face: npt.NDArray[np.int64]
 
 
+def kernel_centre(normals: npt.NDArray[np.float64], points: npt.NDArray[np.float64],
+                  plane: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None
+                  ) -> tuple[npt.NDArray[np.float64], float]:
+    """Centre (3,) and radius of the largest ball inside {x : normals_i . (x - points_i) <= 0} (the
+    kernel of a cell given by its outward face normals and points on the faces; with ``plane`` =
+    (normal, point) the largest disc in that plane: the kernel of a face given by its sides' outward
+    in-plane normals). A linear program (scipy HiGHS); radius 0 when the kernel is empty or flat."""
+    unit = normals / np.linalg.norm(normals, axis=1)[:, None]
+    A_ub = np.column_stack([unit, np.ones(len(unit))])
+    b_ub = np.einsum("ij,ij->i", unit, points)
+    A_eq, b_eq = (None, None) if plane is None else (np.append(plane[0], 0.0)[None], [float(plane[0] @ plane[1])])
+    result = linprog([0, 0, 0, -1], A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq,
+                     bounds=[(None, None)] * 3 + [(0, None)], method="highs")
+    return (result.x[:3], float(result.x[3])) if result.status == 0 else (points.mean(axis=0), 0.0)
+
+
+def _fan_triangles(mesh: PolyhedronMesh, centres: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Areas (n_sides,) of the triangles (face centre, side) in the stored faces' orientation."""
+    side_face = segment_owner(mesh.face_offsets)
+    a = mesh.points[mesh.face_vertices] - centres[side_face]
+    b = mesh.points[mesh.face_vertices[next_entries(mesh.face_offsets)]] - centres[side_face]
+    normal = mesh.face_area_vectors[side_face] / np.linalg.norm(mesh.face_area_vectors[side_face], axis=1)[:, None]
+    return 0.5 * np.einsum("ij,ij->i", np.cross(a, b), normal)
+
+
 def fan_mesh(mesh: PolyhedronMesh) -> FanMesh:
     """The conforming fan tetrahedra of ``mesh`` (module docstring).
+
+    Each face is fanned from its centroid, or, where the centroid does not see the whole face, from
+    the centre of the largest disc in its kernel (the points that see all of it); each cell likewise
+    from its centroid or the centre of the largest ball in its kernel.
 
     Raises
     ------
     ValueError
-        Naming the cell whose centroid does not see one of its face triangles from inside, or
-        whose face is not star-shaped with respect to its centroid.
+        Naming the cell with a face or itself not star-shaped (empty kernel).
     """
     n_p, n_f = mesh.n_points, mesh.n_faces
-    nodes = np.concatenate([mesh.points, mesh.face_centroids, mesh.centroids])
-    # face fans, one per global face
     side_face = segment_owner(mesh.face_offsets)
     a, b = mesh.face_vertices, mesh.face_vertices[next_entries(mesh.face_offsets)]
-    triangles = np.column_stack([n_p + side_face, a, b])
-    X = nodes[triangles]
-    area = 0.5 * np.einsum("ij,ij->i", np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]),
-                           mesh.face_area_vectors[side_face]) / np.linalg.norm(mesh.face_area_vectors[side_face], axis=1)
     face_area = np.linalg.norm(mesh.face_area_vectors, axis=1)
-    bad = np.flatnonzero(area <= _FAN_RTOL * face_area[side_face])
+    face_centres = mesh.face_centroids.copy()
+    for f in np.unique(side_face[_fan_triangles(mesh, face_centres) <= _FAN_RTOL * face_area[side_face]]):
+        ends = mesh.points[b[side_face == f]] - mesh.points[a[side_face == f]]
+        face_centres[f], radius = kernel_centre(np.cross(ends, mesh.face_area_vectors[f]),
+                                                mesh.points[a[side_face == f]],
+                                                (mesh.face_area_vectors[f], mesh.face_centroids[f]))
+    bad = np.flatnonzero(_fan_triangles(mesh, face_centres) <= _FAN_RTOL * face_area[side_face])
     if bad.size:
         f = int(side_face[bad[0]])
-        cell = int(mesh.face_cells[f].max())
-        raise ValueError(f"cell {cell}: its face {f} (vertices {mesh.face(f).tolist()}) is not star-shaped with "
-                         f"respect to its centroid: the fan mesh of the polyhedral space needs it")
+        raise ValueError(f"cell {int(mesh.face_cells[f].max())}: its face {f} (vertices {mesh.face(f).tolist()}) "
+                         f"is not star-shaped: the fan mesh of the polyhedral space needs a point that sees it all")
     # cell fans: every side of every face of every cell, turned out of the cell
     entry_cell = segment_owner(mesh.cell_offsets)
     face = mesh.cell_faces
-    sides = concatenated_ranges(mesh.face_offsets[face], np.diff(mesh.face_offsets)[face])
     count = np.diff(mesh.face_offsets)[face]
+    sides = concatenated_ranges(mesh.face_offsets[face], count)
     cell = np.repeat(entry_cell, count)
     outward = np.repeat(mesh.cell_face_signs, count) > 0
-    a_out = np.where(outward, a[sides], b[sides])
-    b_out = np.where(outward, b[sides], a[sides])
+    a_out, b_out = np.where(outward, a[sides], b[sides]), np.where(outward, b[sides], a[sides])
     tetrahedra = np.column_stack([n_p + n_f + cell, n_p + side_face[sides], a_out, b_out])
-    X = nodes[tetrahedra]
-    volume = np.einsum("ij,ij->i", X[:, 1] - X[:, 0], np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 0])) / 6
+
+    def volumes(nodes):
+        X = nodes[tetrahedra]
+        return np.einsum("ij,ij->i", X[:, 1] - X[:, 0], np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 0])) / 6
+
+    nodes = np.concatenate([mesh.points, face_centres, mesh.centroids])
+    for c in np.unique(cell[volumes(nodes) <= _FAN_RTOL * mesh.volumes[cell]]):
+        faces = mesh.cell_face_indices(c)
+        signs = mesh.cell_face_signs[mesh.cell_offsets[c]:mesh.cell_offsets[c + 1]]
+        nodes[n_p + n_f + c], _ = kernel_centre(signs[:, None] * mesh.face_area_vectors[faces], face_centres[faces])
+    volume = volumes(nodes)
     bad = np.flatnonzero(volume <= _FAN_RTOL * mesh.volumes[cell])
     if bad.size:
         k = int(bad[0])
-        raise ValueError(f"cell {int(cell[k])} is not star-shaped with respect to its centroid: the fan "
+        raise ValueError(f"cell {int(cell[k])} is not star-shaped: no point sees all its faces from inside (the fan "
                          f"tetrahedron on the side ({int(a_out[k])}, {int(b_out[k])}) of its face "
-                         f"{int(side_face[sides[k]])} has volume {volume[k]:.3g}; the fan mesh of the polyhedral "
-                         f"space needs every face triangle seen from inside")
+                         f"{int(side_face[sides[k]])} has volume {volume[k]:.3g}); the fan mesh of the polyhedral "
+                         f"space needs one")
+    triangles = np.column_stack([n_p + side_face, a, b])
     return FanMesh(nodes, tetrahedra.astype(np.int64), cell.astype(np.int64), triangles.astype(np.int64),
                    side_face.astype(np.int64))
 
@@ -193,7 +232,8 @@ class PolyhedralSpace(SFVEMNodes):
     p2_node : (n_local_nodes,) int64
         Local P2 node hosting each SFVEM node.
     x_nodes : (n_local_nodes, 3) float64
-        Coordinates of the SFVEM nodes (face and cell means at the centroids hosting them).
+        Coordinates of the SFVEM nodes (face and cell means at the fan centres hosting them: the
+        centroids, or kernel centres, :func:`fan_mesh`).
     node_kind : (n_local_nodes,) int8
         VERTEX, MIDPOINT, FACE or CELL.
     node_key : (n_local_nodes,) int64

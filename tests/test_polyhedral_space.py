@@ -114,11 +114,28 @@ def test_interpolant_holds_point_values_and_exact_means(name):
         assert q[nodes[-1 - len(faces):-1]] == pytest.approx(means, abs=1e-13)
 
 
-def test_a_cell_its_centroid_does_not_see_is_refused():
+def test_a_cell_that_is_not_star_shaped_is_refused():
     u_shape = np.array([[0, 0], [3, 0], [3, 2], [2, 2], [2, 0.5], [1, 0.5], [1, 2], [0, 2]], dtype=float)
-    mesh = extrude_polygons(sf.PolygonMesh(u_shape, [np.arange(8)]), 1.0, 1)   # centroid in the notch
+    mesh = extrude_polygons(sf.PolygonMesh(u_shape, [np.arange(8)]), 1.0, 1)   # no point sees the whole U
     with pytest.raises(ValueError, match="cell 0.* not star-shaped"):
         fan_mesh(mesh)
+
+
+def test_fans_from_the_kernel_where_the_centroid_does_not_see_the_cell():
+    thin_l = np.array([[0, 0], [4, 0], [4, 0.2], [0.2, 0.2], [0.2, 4], [0, 4]], dtype=float)
+    mesh = extrude_polygons(sf.PolygonMesh(thin_l, [np.arange(6)]), 1.0, 2)    # centroid (1.07, 1.07) outside
+    fan = fan_mesh(mesh)
+    assert np.all(fan.nodes[-2:, :2] <= 0.2) and np.all(fan.nodes[-2:, :2] >= 0)   # the kernel: the corner
+    X = fan.nodes[fan.tetrahedra]
+    volume = np.einsum("ij,ij->i", X[:, 1] - X[:, 0], np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 0])) / 6
+    assert np.all(volume > 0)
+    assert np.bincount(fan.tetrahedron_cell, weights=volume) == pytest.approx(mesh.volumes, rel=1e-12)
+    S = PolyhedralSpace(mesh, MPI.COMM_SELF, verbose=False)
+    u = local_values(S.interpolate(quadratic, degree=2))
+    for k, c in enumerate(S.polyhedra):      # the means are those of the element's quadrature
+        points, faces = mesh.polyhedron(c)
+        x_q, w_q = polyhedron_quadrature(points, faces, 2)
+        assert u[S.polyhedron_dofs(k)[-1]] == pytest.approx(quadratic(x_q.T) @ w_q / w_q.sum(), abs=1e-12)
 
 
 # --------------------------------------------------------------------------- patch test
