@@ -115,8 +115,9 @@ def number_sfvem_nodes(V: dolfinx.fem.FunctionSpace, comm: MPI.Comm, p2_nodes: n
 class SFVEMNodes:
     """The sizes and PETSc objects of SFVEM nodes numbered by :func:`number_sfvem_nodes`.
 
-    Subclasses set ``comm``, ``index_map`` (the nodes, block size 1) and ``block_size`` (the
-    displacement components: unknown ``block_size * node + i``).
+    Subclasses set ``comm``, ``index_map`` (the nodes, block size 1), ``block_size`` (the
+    displacement components: unknown ``block_size * node + i``), ``x_nodes`` (n_local_nodes, gdim),
+    ``tags`` (one per local cell) and the CSR ``dof_offsets``, ``dofs`` of the local cells' nodes.
     """
 
     comm: MPI.Comm
@@ -139,6 +140,35 @@ class SFVEMNodes:
     def create_vector(self) -> PETSc.Vec:
         """A ghosted PETSc vector of SFVEM unknowns (block size ``block_size``)."""
         return _compat.create_petsc_vector(self.index_map, self.block_size)
+
+    def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
+                     tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local SFVEM nodes (owned and ghost) selected geometrically and/or by region tag.
+
+        Parameters
+        ----------
+        marker
+            Function of coordinates ``x`` of shape (gdim, n) returning a bool array (n,), as in
+            ``dolfinx.fem.locate_dofs_geometrically``. Mean nodes are located at the node
+            hosting the mean (``x_nodes``).
+        tags
+            Region tags: all nodes of the cells (polygons, polyhedra) with these tags.
+
+        The selection is made consistent across ranks (a node selected on one rank is
+        selected on every rank that holds it).
+        """
+        if marker is None and tags is None:
+            raise ValueError("give a marker function, region tags, or both")
+        selected = np.ones(self.n_local_nodes, dtype=bool)
+        if marker is not None:
+            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
+        if tags is not None:
+            in_tags = np.zeros(self.n_local_nodes, dtype=bool)
+            chosen = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
+            counts = np.diff(self.dof_offsets)
+            in_tags[self.dofs[np.repeat(chosen, counts)]] = True
+            selected &= in_tags
+        return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
 
     def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
         """Max-combine a per-node indicator over all ranks that hold the node."""
@@ -353,36 +383,6 @@ class VEMSpace(SFVEMNodes):
         row, col, val = row[owned], col[owned], val[owned]
         entry = np.unique(row * self.n_local_nodes + col, return_index=True)[1]   # a shared node once
         return row[entry], col[entry], val[entry]
-
-    # ------------------------------------------------------------------ location
-    def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
-                     tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local SFVEM nodes (owned and ghost) selected geometrically and/or by region tag.
-
-        Parameters
-        ----------
-        marker
-            Function of coordinates ``x`` of shape (2, n) returning a bool array (n,), as in
-            ``dolfinx.fem.locate_dofs_geometrically``. Interior nodes are located at the
-            node hosting the polygon mean.
-        tags
-            Region tags: all nodes of the polygons with these tags.
-
-        The selection is made consistent across ranks (a node selected on one rank is
-        selected on every rank that holds it).
-        """
-        if marker is None and tags is None:
-            raise ValueError("give a marker function, region tags, or both")
-        selected = np.ones(self.n_local_nodes, dtype=bool)
-        if marker is not None:
-            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
-        if tags is not None:
-            in_tags = np.zeros(self.n_local_nodes, dtype=bool)
-            chosen = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
-            counts = np.diff(self.dof_offsets)
-            in_tags[self.dofs[np.repeat(chosen, counts)]] = True
-            selected &= in_tags
-        return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
 
     # ------------------------------------------------------------------ output
     def _p2_interpolation(self) -> scipy.sparse.csr_matrix:

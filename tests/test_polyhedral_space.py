@@ -214,3 +214,17 @@ def test_parallel_patch_test_agrees_with_serial(name):
     for key, value in zip(parallel.node_key.tolist(), values):
         assert value == pytest.approx(reference[key], abs=1e-9)
     assert values == pytest.approx(linear(parallel.x_nodes.T).T, abs=1e-9)
+
+
+@pytest.mark.mpi
+def test_located_nodes_are_those_of_the_face_on_every_partition():
+    S = space("grid", parallel=True)
+    located = S.locate_nodes(lambda x: np.isclose(x[0], 0.0))
+    keys = set(np.concatenate(WORLD.allgather(S.node_key[located])).tolist())
+    # the face x = 0 of the 2 x 2 x 2 grid: 9 vertices, 12 edges, 4 faces (no cell centre)
+    kinds = np.concatenate(WORLD.allgather(S.node_kind[located].astype(np.int64)))
+    all_keys = np.concatenate(WORLD.allgather(S.node_key[located]))
+    assert np.bincount(kinds[np.unique(all_keys, return_index=True)[1]], minlength=4).tolist() == [9, 12, 4, 0]
+    assert keys == set(space("grid").node_key[space("grid").locate_nodes(lambda x: np.isclose(x[0], 0.0))].tolist())
+    everything = S.locate_nodes(tags=[0])
+    assert everything.size == S.n_local_nodes
