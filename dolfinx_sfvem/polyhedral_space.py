@@ -36,6 +36,7 @@ import typing
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse
 from mpi4py import MPI
 from petsc4py import PETSc
 from scipy.optimize import linprog
@@ -47,8 +48,10 @@ from . import _compat
 from .assemble import coo_pattern
 from .logs import say
 from .polygon_mesh import concatenated_ranges, coordinate_bisection, next_entries, segment_owner
+from .monomials3d import exponents3
 from .polyhedron import tetrahedron_rule
 from .polyhedron_mesh import PolyhedronMesh
+from .projection3d import PolyhedronProjections
 from .quadrature import triangle_rule
 from .space import EdgeLookup, SFVEMNodes, number_sfvem_nodes
 
@@ -267,6 +270,7 @@ class PolyhedralSpace(SFVEMNodes):
         self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
         self.node_key[self.dofs] = key
         self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :3].copy()
+        self._to_p2: scipy.sparse.csr_matrix | None = None
         self.global_nodes = np.asarray(self.index_map.local_to_global(np.arange(self.n_local_nodes, dtype=np.int32)),
                                        dtype=np.int64)
         say(log, self.summary(), verbose, comm)
@@ -383,6 +387,60 @@ class PolyhedralSpace(SFVEMNodes):
         with x.localForm() as xl:
             xl.array[:] = values.ravel()
         return x
+
+    def to_function(self, x: PETSc.Vec, projections: typing.Sequence[PolyhedronProjections],
+                    u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
+        """The P2 :class:`dolfinx.fem.Function` of an SFVEM state (for XDMF/VTK output).
+
+        The P2 nodes at polyhedron vertices and edge midpoints take their DOF values; every other
+        P2 node (face and cell centres, spoke midpoints) the value of Π^∇_2 u of one polyhedron
+        holding it (a node on a face: either of its two cells). Quadratic fields are exact.
+
+        Parameters
+        ----------
+        x
+            Ghosted SFVEM vector (ghost values up to date).
+        projections
+            One per local polyhedron, in ``polyhedra`` order (``Pi_nabla``, ``centroid``,
+            ``diameter`` are used); those of the first call are kept for the later ones.
+        u
+            Function on ``self.V`` to fill; created when omitted.
+        """
+        if self._to_p2 is None:
+            self._to_p2 = self._p2_interpolation(projections)
+        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
+        with x.localForm() as xl:
+            values = xl.array.reshape(-1, 3)
+        u.x.array[:] = (self._to_p2 @ values).ravel()
+        u.x.scatter_forward()
+        return u
+
+    def _p2_interpolation(self, projections: typing.Sequence[PolyhedronProjections]) -> scipy.sparse.csr_matrix:
+        """Sparse map (n_local_p2, n_local_nodes) from SFVEM node values to P2 node values."""
+        im = self.V.dofmap.index_map
+        n_p2 = im.size_local + im.num_ghosts
+        owned_cells = _compat.num_owned_cells(self.mesh)
+        p2 = _compat.cell_dofs(self.V)[:owned_cells]
+        x_p2 = self.V.tabulate_dof_coordinates()[:, :3]
+        owner = np.full(n_p2, -1, dtype=np.int64)
+        owner[p2.ravel()] = np.repeat(np.searchsorted(self.polyhedra, self.cell_polyhedron[:owned_cells]), p2.shape[1])
+        direct = self.p2_node[self.node_kind <= MIDPOINT]
+        owner[direct] = -1
+        rows, cols, vals = [direct], [np.flatnonzero(self.node_kind <= MIDPOINT)], [np.ones(direct.size)]
+        exponents = exponents3(2)
+        nodes = np.flatnonzero(owner >= 0)
+        by_owner = nodes[np.argsort(owner[nodes], kind="stable")]
+        starts = np.searchsorted(owner[by_owner], np.arange(len(projections) + 1))
+        for k, proj in enumerate(projections):
+            at = by_owner[starts[k]:starts[k + 1]]
+            xi = (x_p2[at] - proj.centroid) / proj.diameter
+            m = np.prod(xi[:, None, :] ** exponents[None], axis=2)                  # (n, 10)
+            dofs = self.polyhedron_dofs(k)
+            rows.append(np.repeat(at, dofs.size))
+            cols.append(np.tile(dofs, at.size))
+            vals.append((m @ proj.Pi_nabla).ravel())
+        return scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                       shape=(n_p2, self.n_local_nodes))
 
     def boundary_nodes(self) -> npt.NDArray[np.int64]:
         """Local SFVEM nodes on the boundary of the mesh: the vertices, edge midpoints and face means
