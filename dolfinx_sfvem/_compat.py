@@ -84,10 +84,12 @@ def _vertex_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np
     all its vertex neighbours lets DOLFINx 0.5.2 see every shared vertex (:func:`create_triangle_mesh`)."""
     n, k = cells.shape
     entry_cell = np.repeat(np.arange(n), k)
-    vertex_rank = np.unique(np.stack([cells.ravel(), owner[entry_cell]], axis=1), axis=0)   # sorted by vertex
-    start = np.searchsorted(vertex_rank[:, 0], cells.ravel(), "left")
-    count = np.searchsorted(vertex_rank[:, 0], cells.ravel(), "right") - start
-    ranks = vertex_rank[np.repeat(start - np.cumsum(count) + count, count) + np.arange(count.sum()), 1]
+    n_ranks = int(owner.max(initial=0)) + 1
+    vertex_rank = np.unique(cells.ravel() * n_ranks + owner[entry_cell])       # sorted by vertex, then rank
+    vertex = vertex_rank // n_ranks
+    start = np.searchsorted(vertex, cells.ravel(), "left")
+    count = np.searchsorted(vertex, cells.ravel(), "right") - start
+    ranks = vertex_rank[np.repeat(start - np.cumsum(count) + count, count) + np.arange(count.sum())] % n_ranks
     ghost_cell = np.repeat(entry_cell, count)
     other = ranks != owner[ghost_cell]
     return _destinations_csr(owner, ghost_cell[other], ranks[other])
@@ -98,11 +100,13 @@ def _destinations_csr(owner: np.ndarray, ghost_cell: np.ndarray, ghost_rank: np.
     """CSR (data, offsets) of the ranks of every cell: its owner first, then the distinct ranks
     ``ghost_rank`` of the entries ``ghost_cell`` (ranks other than the owner)."""
     n = owner.size
-    pairs = np.unique(np.stack([np.concatenate([np.arange(n), ghost_cell]),
-                                np.concatenate([np.full(n, -1), ghost_rank])], axis=1), axis=0)
+    span = int(max(owner.max(initial=0), np.max(ghost_rank, initial=0))) + 2
+    pairs = np.unique(np.concatenate([np.arange(n) * span, np.asarray(ghost_cell, dtype=np.int64) * span
+                                      + np.asarray(ghost_rank, dtype=np.int64) + 1]))
+    cell, rank = pairs // span, pairs % span - 1
     # the owner comes first: it was entered with rank -1, which sorts first within a cell
-    data = np.where(pairs[:, 1] < 0, owner[pairs[:, 0]], pairs[:, 1]).astype(np.int32)
-    offsets = np.concatenate([[0], np.cumsum(np.bincount(pairs[:, 0], minlength=n))]).astype(np.int32)
+    data = np.where(rank < 0, owner[cell], rank).astype(np.int32)
+    offsets = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=n))]).astype(np.int32)
     return data, offsets
 
 
