@@ -447,6 +447,43 @@ def edge_key(a: npt.ArrayLike, b: npt.ArrayLike, n_points: int) -> npt.NDArray[n
     return np.minimum(a, b) * n_points + np.maximum(a, b)
 
 
+def coordinate_bisection(centroids: npt.NDArray[np.float64], n_parts: int) -> npt.NDArray[np.int32]:
+    """Recursive coordinate bisection of cell centroids (any dimension).
+
+    Each set is cut across its longest centroid extent so that the two halves hold cell counts
+    proportional to their part counts (ties broken by cell index: deterministic).
+
+    Parameters
+    ----------
+    centroids : (n_cells, dim) float64
+    n_parts
+        Number of parts (>= 1).
+
+    Returns
+    -------
+    (n_cells,) int32
+        Part of every cell, in [0, n_parts).
+    """
+    if int(n_parts) != n_parts or n_parts < 1:
+        raise ValueError(f"n_parts must be a positive integer, got {n_parts}")
+    parts = np.zeros(len(centroids), dtype=np.int32)
+
+    def bisect(ids: npt.NDArray[np.int64], first: int, k: int) -> None:
+        if k == 1 or ids.size == 0:
+            parts[ids] = first
+            return
+        c = centroids[ids]
+        axis = int(np.argmax(np.ptp(c, axis=0)))
+        ids = ids[np.lexsort((ids, c[:, axis]))]
+        k_low = k // 2
+        n_low = ids.size * k_low // k
+        bisect(ids[:n_low], first, k_low)
+        bisect(ids[n_low:], first + k_low, k - k_low)
+
+    bisect(np.arange(len(centroids), dtype=np.int64), 0, int(n_parts))
+    return parts
+
+
 class Sides(NamedTuple):
     """The directed sides of the polygons of a :class:`PolygonMesh`, one per entry of its
     vertex array (in that order): side k runs from vertex entry k to the next one of its
@@ -846,39 +883,9 @@ class PolygonMesh:
 
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:
-        """Recursive coordinate bisection of the polygon centroids.
-
-        Each set is cut across its longer centroid extent so that the two halves hold polygon
-        counts proportional to their part counts (ties broken by polygon index: deterministic).
-
-        Parameters
-        ----------
-        n_parts
-            Number of parts (>= 1).
-
-        Returns
-        -------
-        (n_polygons,) int32
-            Part of every polygon, in [0, n_parts).
-        """
-        if int(n_parts) != n_parts or n_parts < 1:
-            raise ValueError(f"n_parts must be a positive integer, got {n_parts}")
-        parts = np.zeros(self.n_polygons, dtype=np.int32)
-
-        def bisect(ids: npt.NDArray[np.int64], first: int, k: int) -> None:
-            if k == 1 or ids.size == 0:
-                parts[ids] = first
-                return
-            c = self.centroids[ids]
-            axis = int(np.argmax(np.ptp(c, axis=0)))
-            ids = ids[np.lexsort((ids, c[:, axis]))]
-            k_low = k // 2
-            n_low = ids.size * k_low // k
-            bisect(ids[:n_low], first, k_low)
-            bisect(ids[n_low:], first + k_low, k - k_low)
-
-        bisect(np.arange(self.n_polygons, dtype=np.int64), 0, int(n_parts))
-        return parts
+        """Part (n_polygons,) int32 in [0, n_parts) of every polygon: :func:`coordinate_bisection`
+        of the polygon centroids."""
+        return coordinate_bisection(self.centroids, n_parts)
 
     def to_dolfinx(self, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, npt.NDArray[np.int64]]:
         """The DOLFINx triangle mesh of the sub-triangles, each polygon's cells on one rank.
