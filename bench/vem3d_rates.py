@@ -25,7 +25,9 @@ import numpy.typing as npt
 from vem3d_solve import error_norms, solve
 
 from dolfinx_sfvem import meshes
+from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry
 from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.projection3d import polyhedron_projections
 
 YOUNG, POISSON = 1.0, 0.3
 MU = YOUNG / (2 * (1 + POISSON))
@@ -69,6 +71,13 @@ def _lattice(n: int) -> npt.NDArray[np.float64]:
     return (np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) + 0.5) / n
 
 
+def octree_two_levels(n: int) -> PolyhedronMesh:
+    """As :func:`octree`, the ball's cubes split twice: three sizes, coarse cubes with up to 6 finer
+    neighbours."""
+    return meshes.octree_box([0, 0, 0], [1, 1, 1], n).refine(
+        lambda x: np.linalg.norm(x, axis=0) < 0.45, 2).polyhedra()
+
+
 def voronoi(n: int) -> PolyhedronMesh:
     """Voronoi cells of a perturbed body-centred cubic lattice: the n^3 cube centres and the (n-1)^3
     inner cube corners, shifted by 1/(8n) along every axis and each moved by up to 0.05 spacings per
@@ -105,8 +114,9 @@ def prisms(n: int) -> PolyhedronMesh:
 
 
 FAMILIES: dict[str, tuple[Callable[[int], PolyhedronMesh], tuple[int, ...]]] = {
-    "cubes": (cubes, (2, 4, 6, 8)),
+    "cubes": (cubes, (2, 4, 8, 12)),
     "octree": (octree, (2, 4, 6, 8)),
+    "octree_two_levels": (octree_two_levels, (2, 4, 6)),
     "voronoi": (voronoi, (3, 4, 5, 6)),
     "voronoi_cubic": (voronoi_cubic, (3, 4, 6, 8)),
     "voronoi_random": (voronoi_random, (3, 4, 6, 8)),
@@ -154,12 +164,40 @@ def markdown(results: dict) -> str:
                               "| family | L2 | H1 |", "|---|---|---|", *fits]) + "\n"
 
 
+def census(mesh: PolyhedronMesh) -> list[dict]:
+    """The cells on which the element fails (ValueError of polyhedron_projections): index, centroid,
+    vertex and face counts, shortest edge and smallest face area relative to the cell's diameter h,
+    and the reason."""
+    failures = []
+    for c in range(mesh.n_cells):
+        points, faces = mesh.polyhedron(c)
+        try:
+            polyhedron_projections(points, faces)
+        except ValueError as error:
+            g = polyhedron_geometry(points, faces)
+            edges = polyhedron_edges(faces)
+            shortest = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1).min()
+            failures.append({"cell": c, "centroid": np.round(mesh.centroids[c], 3).tolist(), "vertices": len(points),
+                             "faces": len(faces), "min_edge/h": float(shortest / g.diameter),
+                             "min_area/h^2": float(g.face_areas.min() / g.diameter ** 2), "reason": str(error)})
+    return failures
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="+", default=list(FAMILIES), choices=list(FAMILIES))
     parser.add_argument("--levels", type=int, default=4, help="number of levels per family (coarsest first)")
+    parser.add_argument("--census", type=int, metavar="N", help="only list the failing cells of the families at size N")
     parser.add_argument("--out", default=str(pathlib.Path(__file__).with_name("vem3d_rates.json")))
     args = parser.parse_args()
+    if args.census:
+        for name in args.families:
+            mesh = FAMILIES[name][0](args.census)
+            failures = census(mesh)
+            print(f"{name} n={args.census}: {len(failures)} of {mesh.n_cells} cells fail")
+            for f in failures:
+                print(" ", json.dumps(f))
+        return
     out = pathlib.Path(args.out)
     results = json.loads(out.read_text()) if out.exists() else {}
     for name in args.families:
