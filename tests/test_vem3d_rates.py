@@ -40,7 +40,7 @@ def test_manufactured_body_force_is_minus_div_sigma():
     assert np.allclose(rates.body_force(x), -div, atol=1e-7)
 
 
-@pytest.mark.parametrize("family", ["octree", "voronoi"])
+@pytest.mark.parametrize("family", ["octree", pytest.param("voronoi", marks=pytest.mark.slow)])
 def test_manufactured_solution_rates(family):
     make, sizes = rates.FAMILIES[family]
     levels = [rates.run_level(make(n)) for n in sizes[:2]]
