@@ -116,7 +116,7 @@ def prisms(n: int) -> PolyhedronMesh:
 FAMILIES: dict[str, tuple[Callable[[int], PolyhedronMesh], tuple[int, ...]]] = {
     "cubes": (cubes, (2, 4, 8, 12)),
     "octree": (octree, (2, 4, 6, 8)),
-    "octree_two_levels": (octree_two_levels, (2, 4, 6)),
+    "octree_two_levels": (octree_two_levels, (2, 4, 6, 8)),
     "voronoi": (voronoi, (3, 4, 5, 6)),
     "voronoi_cubic": (voronoi_cubic, (3, 4, 6, 8)),
     "voronoi_random": (voronoi_random, (3, 4, 6, 8)),
