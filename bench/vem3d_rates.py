@@ -147,7 +147,11 @@ def slopes(levels: list[dict], norm: str) -> tuple[float, float]:
 
 def markdown(results: dict) -> str:
     """The results table."""
-    lines = ["| family | cells | h | unknowns | L2 error | rate | H1 error | rate | l (cells) | time s |",
+    lines = ["# Order-2 SFVEM on polyhedral meshes: manufactured-solution rates", "",
+             "Written by `bench/vem3d_rates.py` (linear elasticity on the unit cube, plane-wave displacement; "
+             "L2 = ||u - Pi^nabla_2 u_h||, H1 = ||grad u - Pi^0_l grad u_h||, h = (volume / cells)^(1/3); "
+             "times on 2 shared cores). Discussion: docs/notes/2026-11-26-sfvem-3d-rates.md.", "",
+             "| family | cells | h | unknowns | L2 error | rate | H1 error | rate | l (cells) | time s |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     fits = []
     for name, levels in results.items():
