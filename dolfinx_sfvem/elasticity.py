@@ -158,10 +158,30 @@ def linear_elastic_stiffness_3d(points: npt.ArrayLike, faces, young: float, pois
     """
     C = isotropic_elasticity(young, poisson)
     P = polyhedron_projections(points, faces, l=l)
-    nl, nd = P.Q.shape[1:]
+    return stiffness_from_gradient_projection_3d(P.Q, C), P.l
+
+
+def stiffness_from_gradient_projection_3d(Q: npt.NDArray[np.float64], C: npt.NDArray[np.float64]
+                                          ) -> npt.NDArray[np.float64]:
+    """K = int_E B^T C B of one polyhedron from its projected gradient (no stabilisation).
+
+    Parameters
+    ----------
+    Q : (3, n_l, n_d) float64
+        Pi^0_l grad in the L^2(E)-orthonormal basis
+        (:class:`~dolfinx_sfvem.projection3d.PolyhedronProjections`).
+    C : (6, 6) float64
+        Voigt elasticity matrix (:func:`isotropic_elasticity`).
+
+    Returns
+    -------
+    K : (3 n_d, 3 n_d) float64
+        In the DOF order of :func:`linear_elastic_stiffness_3d`.
+    """
+    nl, nd = Q.shape[1:]
     B = np.zeros((6, nl, 3 * nd))
     for i, pairs in enumerate(_VOIGT_3D):
         for c, d in pairs:
-            B[i, :, c * nd:(c + 1) * nd] += P.Q[d]
+            B[i, :, c * nd:(c + 1) * nd] += Q[d]
     CB = np.tensordot(C, B, axes=(1, 0))  # (6, nl, 3 nd): CB_i = sum_j C_ij B_j
-    return B.reshape(6 * nl, 3 * nd).T @ CB.reshape(6 * nl, 3 * nd), P.l
+    return B.reshape(6 * nl, 3 * nd).T @ CB.reshape(6 * nl, 3 * nd)
