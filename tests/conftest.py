@@ -754,8 +754,8 @@ def polyhedron(polyhedron_name) -> tuple[np.ndarray, list[np.ndarray]]:
 
 # --------------------------------------------------------------------------- 3D energies by hand
 class ByHand:
-    """Psi in 3D written with numpy and central differences: the references of the 3D kernel and
-    element tests (fixture ``by_hand``)."""
+    """Central differences, and Psi in 3D written with numpy: references of the kernel and element
+    tests (fixture ``by_hand``)."""
 
     @staticmethod
     def central_difference(f, x, h=1e-6):
