@@ -39,7 +39,7 @@ from .assemble import CONTRACT
 from .compiled_energy import EnergyKernels, compile_kernels
 from .energy import Energy
 from .monomials3d import evaluate_monomials3, n_monomials3
-from .polyhedron import polyhedron_quadrature
+from .polyhedron import energy_quadrature
 from .projection3d import PolyhedronProjections, polyhedron_projections
 
 
@@ -215,7 +215,7 @@ class HyperelasticPolyhedron:
     constants : (n_constants,) float64
         The kernels' constants with the energy's parameters.
     x_q, w_q : (n_q, 3), (n_q,) float64
-        The energy quadrature (sub-tetrahedra, exact for degree 2 l by default).
+        The energy quadrature (exact for degree 2 l by default).
     table : (n_d, n_q, nphi) float64
         :func:`basis_table`.
     """
@@ -253,7 +253,7 @@ class HyperelasticPolyhedron:
 
 def hyperelastic_polyhedron(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike], energy: Energy,
                             params: Mapping[str, float] | None = None, l: int | None = None,
-                            degree: int | None = None) -> HyperelasticPolyhedron:
+                            degree: int | None = None, quadrature: str = "auto") -> HyperelasticPolyhedron:
     """The finite-strain element of one polyhedron (module docstring).
 
     Parameters
@@ -268,11 +268,14 @@ def hyperelastic_polyhedron(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike
         Degree of the gradient projection; default the smallest sufficient one.
     degree
         Degree of exactness of the energy quadrature; default 2 l (exact for the linearized energy).
+    quadrature
+        Its rule (:func:`~dolfinx_sfvem.polyhedron.energy_quadrature`): "auto" (tensor rule on boxes,
+        sub-tetrahedra elsewhere), "tetrahedra" or "compressed".
     """
     projections = polyhedron_projections(points, faces, l)
     kernels = compile_kernels(energy, dim=3)
     constants = kernels.pack_constants(energy.params if params is None else params)
-    x_q, w_q = polyhedron_quadrature(points, faces, 2 * projections.l if degree is None else degree)
+    x_q, w_q = energy_quadrature(points, faces, 2 * projections.l if degree is None else degree, quadrature)
     nphi = 12 if kernels.uses_gradient else 3
     table = basis_table(np.ascontiguousarray(x_q), projections.centroid, projections.diameter, projections.l,
                         np.ascontiguousarray(projections.Pi_m), nphi)
