@@ -155,16 +155,15 @@ def element_tangent(kernel, c, F_at, G_at, D_at, A_at, B_at, table, w_q, u):
 
     ``kernel`` is the compiled tangent kernel ([D(d⁴), A(d⁵), B(d⁶)], or [D]); D_at, A_at, B_at
     its offsets (A_at, B_at unused when the table has d rows per point); the other arguments as
-    in :func:`element_residual`.
+    in :func:`element_residual`. Per component pair (i, m), Z = C_im Phi at every point, then
+    K_im = Phi Z^T as one product over all points (the table as (n_d, n_q nphi)); K_mi = K_im^T.
     """
     d, nd = u.shape
     nq, nphi = table.shape[1], table.shape[2]
     d2, d3 = d * d, d * d * d
     out = np.zeros(d2 * d2 + ((d2 * d3 + d3 * d3) if nphi > d else 0))
     scratch = kernel_scratch()
-    C = np.empty((d, nphi, d, nphi))
-    W = np.empty((nphi, nd))
-    K = np.zeros((d * nd, d * nd))
+    C = np.empty((d, d, nq, nphi, nphi))      # w_q C[i, al, m, be] at [i, m, q, al, be]
     for q in range(nq):
         _set_deformation(table, q, u, c, F_at, G_at)
         out[:] = 0.0
@@ -182,21 +181,23 @@ def element_tangent(kernel, c, F_at, G_at, D_at, A_at, B_at, table, w_q, u):
                             v = out[A_at + d2 * d2 * m + d2 * (be - d) + d * i + al]
                         else:                        # B_ijk,mnr
                             v = out[B_at + d2 * d3 * i + d3 * (al - d) + d2 * m + be - d]
-                        C[i, al, m, be] = w * v
-        for i in range(d):
-            for m in range(d):
-                for al in range(nphi):       # W[al, b] = sum_be C[i, al, m, be] Phi[b, q, be]
-                    for b in range(nd):
+                        C[i, m, q, al, be] = w * v
+    Phi = table.reshape(nd, nq * nphi)
+    Z = np.empty((nd, nq * nphi))
+    K = np.empty((d * nd, d * nd))
+    for i in range(d):
+        for m in range(i, d):
+            for b in range(nd):
+                for q in range(nq):
+                    for al in range(nphi):
                         s = 0.0
                         for be in range(nphi):
-                            s += C[i, al, m, be] * table[b, q, be]
-                        W[al, b] = s
-                for a in range(nd):
-                    for b in range(nd):
-                        s = 0.0
-                        for al in range(nphi):
-                            s += table[a, q, al] * W[al, b]
-                        K[i * nd + a, m * nd + b] += s
+                            s += C[i, m, q, al, be] * table[b, q, be]
+                        Z[b, q * nphi + al] = s
+            block = Phi @ Z.T
+            K[i * nd:(i + 1) * nd, m * nd:(m + 1) * nd] = block
+            if m > i:
+                K[m * nd:(m + 1) * nd, i * nd:(i + 1) * nd] = block.T
     return K
 
 
