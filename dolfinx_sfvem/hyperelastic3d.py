@@ -43,6 +43,10 @@ from .polyhedron import energy_quadrature
 from .projection3d import PolyhedronProjections, polyhedron_projections
 
 
+#: quadrature points per product in :func:`element_tangent` (bounds its work arrays)
+CHUNK = 256
+
+
 @numba.njit(cache=True)
 def basis_table(x_q, centroid, diameter, l, Pi_m, nphi):
     """Phi (n_d, n_q, nphi) of one polyhedron: the projected first derivatives of its basis
@@ -155,49 +159,60 @@ def element_tangent(kernel, c, F_at, G_at, D_at, A_at, B_at, table, w_q, u):
 
     ``kernel`` is the compiled tangent kernel ([D(d⁴), A(d⁵), B(d⁶)], or [D]); D_at, A_at, B_at
     its offsets (A_at, B_at unused when the table has d rows per point); the other arguments as
-    in :func:`element_residual`. Per component pair (i, m), Z = C_im Phi at every point, then
-    K_im = Phi Z^T as one product over all points (the table as (n_d, n_q nphi)); K_mi = K_im^T.
+    in :func:`element_residual`. Per component pair (i, m), Z = C_im Phi at the points of a chunk
+    of :data:`CHUNK`, then K_im += Phi Z^T as one product over them (the chunk's table as
+    (n_d, CHUNK nphi)); K_mi = K_im^T.
     """
     d, nd = u.shape
     nq, nphi = table.shape[1], table.shape[2]
     d2, d3 = d * d, d * d * d
     out = np.zeros(d2 * d2 + ((d2 * d3 + d3 * d3) if nphi > d else 0))
     scratch = kernel_scratch()
-    C = np.empty((d, d, nq, nphi, nphi))      # w_q C[i, al, m, be] at [i, m, q, al, be]
-    for q in range(nq):
-        _set_deformation(table, q, u, c, F_at, G_at)
-        out[:] = 0.0
-        call_kernel(kernel, out, c, scratch)
-        w = w_q[q]
-        for i in range(d):
-            for m in range(d):
-                for al in range(nphi):
-                    for be in range(nphi):
-                        if al < d and be < d:        # D_ijmn
-                            v = out[D_at + d3 * i + d2 * al + d * m + be]
-                        elif be < d:                 # A_ijk,mn, (j, k) = al - d
-                            v = out[A_at + d2 * d2 * i + d2 * (al - d) + d * m + be]
-                        elif al < d:                 # A_mnr,ij, (n, r) = be - d
-                            v = out[A_at + d2 * d2 * m + d2 * (be - d) + d * i + al]
-                        else:                        # B_ijk,mnr
-                            v = out[B_at + d2 * d3 * i + d3 * (al - d) + d2 * m + be - d]
-                        C[i, m, q, al, be] = w * v
-    Phi = table.reshape(nd, nq * nphi)
-    Z = np.empty((nd, nq * nphi))
-    K = np.empty((d * nd, d * nd))
-    for i in range(d):
-        for m in range(i, d):
-            for b in range(nd):
-                for q in range(nq):
+    n_chunk = min(nq, CHUNK)
+    C = np.empty((d, d, n_chunk, nphi, nphi))      # w_q C[i, al, m, be] at [i, m, q - q0, al, be]
+    Phi = np.empty((nd, n_chunk * nphi))
+    Z = np.empty((nd, n_chunk * nphi))
+    K = np.zeros((d * nd, d * nd))
+    for q0 in range(0, nq, n_chunk):
+        n = min(n_chunk, nq - q0)
+        for p in range(n):
+            q = q0 + p
+            _set_deformation(table, q, u, c, F_at, G_at)
+            out[:] = 0.0
+            call_kernel(kernel, out, c, scratch)
+            w = w_q[q]
+            for i in range(d):
+                for m in range(d):
                     for al in range(nphi):
-                        s = 0.0
                         for be in range(nphi):
-                            s += C[i, m, q, al, be] * table[b, q, be]
-                        Z[b, q * nphi + al] = s
-            block = Phi @ Z.T
-            K[i * nd:(i + 1) * nd, m * nd:(m + 1) * nd] = block
-            if m > i:
-                K[m * nd:(m + 1) * nd, i * nd:(i + 1) * nd] = block.T
+                            if al < d and be < d:        # D_ijmn
+                                v = out[D_at + d3 * i + d2 * al + d * m + be]
+                            elif be < d:                 # A_ijk,mn, (j, k) = al - d
+                                v = out[A_at + d2 * d2 * i + d2 * (al - d) + d * m + be]
+                            elif al < d:                 # A_mnr,ij, (n, r) = be - d
+                                v = out[A_at + d2 * d2 * m + d2 * (be - d) + d * i + al]
+                            else:                        # B_ijk,mnr
+                                v = out[B_at + d2 * d3 * i + d3 * (al - d) + d2 * m + be - d]
+                            C[i, m, p, al, be] = w * v
+            for b in range(nd):
+                for al in range(nphi):
+                    Phi[b, p * nphi + al] = table[b, q, al]
+        if n < n_chunk:
+            Phi[:, n * nphi:] = 0.0
+        for i in range(d):
+            for m in range(i, d):
+                for b in range(nd):
+                    for p in range(n):
+                        for al in range(nphi):
+                            s = 0.0
+                            for be in range(nphi):
+                                s += C[i, m, p, al, be] * Phi[b, p * nphi + be]
+                            Z[b, p * nphi + al] = s
+                    Z[b, n * nphi:] = 0.0
+                K[i * nd:(i + 1) * nd, m * nd:(m + 1) * nd] += Phi @ Z.T
+    for i in range(d):                                   # K_mi = K_im^T
+        for m in range(i + 1, d):
+            K[m * nd:(m + 1) * nd, i * nd:(i + 1) * nd] = K[i * nd:(i + 1) * nd, m * nd:(m + 1) * nd].T
     return K
 
 
