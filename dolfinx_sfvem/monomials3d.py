@@ -90,3 +90,13 @@ def evaluate_monomials3(x: np.ndarray, x_E: np.ndarray, h_E: float, k: int, m: n
                 dm[1, a] = q * m[monomial_index3(p, q - 1, r)] / h_E if q > 0 else 0.0
                 dm[2, a] = r * m[monomial_index3(p, q, r - 1)] / h_E if r > 0 else 0.0
                 a += 1
+
+
+@numba.njit(cache=True)
+def monomial_matrix3(x: np.ndarray, x_E: np.ndarray, h_E: float, k: int) -> np.ndarray:
+    """All scaled monomials of degree <= k at the points x (n, 3): V (n_monomials3(k), n)."""
+    V = np.empty((n_monomials3(k), x.shape[0]))
+    dm = np.empty((3, V.shape[0]))
+    for q in range(x.shape[0]):
+        evaluate_monomials3(x[q], x_E, h_E, k, V[:, q], dm)
+    return V

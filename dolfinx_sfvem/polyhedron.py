@@ -31,7 +31,7 @@ import numpy.typing as npt
 from .monomials3d import evaluate_monomials3, n_monomials3
 from .polygon import FAILED, RTOL, sub_triangulation
 from .polygon import diameter as polygon_diameter
-from .quadrature import triangle_rule
+from .quadrature import compress_rule, triangle_rule
 
 #: Largest distance of a face vertex from the face's plane, relative to the polyhedron's diameter.
 #: Non-planar faces break the exactness of every face integral (the projections are built in the
@@ -418,6 +418,54 @@ def polyhedron_quadrature(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike],
     triangles, _ = face_triangles(points, offsets, vertices)
     centroid = _geometry(points, offsets, vertices)[1]
     return map_tetrahedron_rule(triangles, centroid, *tetrahedron_rule(degree))
+
+
+#: relative volume defect below which a polyhedron is taken for its bounding box (:func:`energy_quadrature`)
+BOX_TOL = 1e-12
+
+#: the rules of :func:`energy_quadrature`
+QUADRATURES = ("auto", "tetrahedra", "compressed")
+
+
+def box_rule(lower: npt.ArrayLike, upper: npt.ArrayLike, degree: int
+             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Tensor Gauss-Legendre rule on the box [lower, upper] exact for ``degree``: (degree//2 + 1)³
+    points (n, 3), positive weights (n,) summing to its volume."""
+    lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+    g, wg = np.polynomial.legendre.leggauss(int(degree) // 2 + 1)
+    s = (g + 1) / 2
+    axes = [lower[c] + s * (upper[c] - lower[c]) for c in range(3)]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    w = np.einsum("i,j,k->ijk", *[wg / 2 * (upper[c] - lower[c]) for c in range(3)]).ravel()
+    return x, w
+
+
+def energy_quadrature(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike], degree: int, rule: str = "auto"
+                      ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The rule of a polyhedron's energy integrals, exact for polynomials of ``degree``.
+
+    ``rule``: ``"tetrahedra"`` the sub-tetrahedral rule (:func:`polyhedron_quadrature`);
+    ``"auto"`` the tensor rule (:func:`box_rule`) when the polyhedron is an axis-aligned box (its
+    volume that of its bounding box: octree cells, whatever their hanging vertices), else the
+    sub-tetrahedral rule; ``"compressed"`` as "auto", with the sub-tetrahedral rule compressed to
+    at most dim P_degree positive weights (:func:`dolfinx_sfvem.quadrature.compress_rule`;
+    seconds per cell at degree 10: docs/notes/2026-11-26-sfvem-3d-hyperelastic.md).
+
+    Returns
+    -------
+    x_q : (n_q, 3) float64
+    w_q : (n_q,) float64
+    """
+    if rule not in QUADRATURES:
+        raise ValueError(f"unknown quadrature {rule!r}; valid: {QUADRATURES}")
+    points = np.asarray(points, dtype=np.float64)
+    if rule != "tetrahedra":
+        lower, upper = points.min(axis=0), points.max(axis=0)
+        box = np.prod(upper - lower)
+        if abs(polyhedron_geometry(points, faces).volume - box) <= BOX_TOL * box:
+            return box_rule(lower, upper, degree)
+    x_q, w_q = polyhedron_quadrature(points, faces, degree)
+    return compress_rule(x_q, w_q, degree) if rule == "compressed" else (x_q, w_q)
 
 
 def polyhedron_monomial_integrals(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike], centre: npt.ArrayLike,

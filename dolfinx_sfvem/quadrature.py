@@ -25,6 +25,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.optimize
 
+from .monomials3d import monomial_matrix3
+
 
 @functools.lru_cache(maxsize=None)
 def triangle_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
@@ -166,15 +168,16 @@ def parallelogram_rule(corners: npt.NDArray[np.float64], degree: int) -> tuple[n
 
 def compress_rule(points: npt.NDArray[np.float64], weights: npt.NDArray[np.float64],
                   degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """A subset of ``points`` with non-negative weights and the same moments up to ``degree``.
+    """A subset of ``points`` (n, 2) or (n, 3) with non-negative weights and the same moments up to
+    ``degree``.
 
     Non-negative least squares on the moment equations gives a basic solution with at most
-    dim P_degree = (d + 1)(d + 2)/2 points. The input rule is returned when the result
+    dim P_degree points ((d + 1)(d + 2)/2 in 2D, (d + 1)(d + 2)(d + 3)/6 in 3D). The input rule is returned when the result
     misses a moment by more than :data:`MOMENT_TOLERANCE` (relative) or is not smaller.
     """
     centre = weights @ points / weights.sum()
     scale = np.ptp(points, axis=0).max()
-    V = scaled_monomials(points, centre, scale, degree)
+    V = (scaled_monomials if points.shape[1] == 2 else monomial_matrix3)(points, centre, scale, degree)
     moments = V @ weights
     w, _ = scipy.optimize.nnls(V, moments)
     keep = w > 0.0

@@ -750,3 +750,38 @@ def polyhedron_name(request) -> str:
 @pytest.fixture
 def polyhedron(polyhedron_name) -> tuple[np.ndarray, list[np.ndarray]]:
     return POLYHEDRA[polyhedron_name]
+
+
+# --------------------------------------------------------------------------- 3D energies by hand
+class ByHand:
+    """Central differences, and Psi in 3D written with numpy: references of the kernel and element
+    tests (fixture ``by_hand``)."""
+
+    @staticmethod
+    def central_difference(f, x, h=1e-6):
+        """d f / d x by central differences: shape f(x).shape + x.shape."""
+        columns = []
+        for index in np.ndindex(x.shape):
+            e = np.zeros_like(x)
+            e[index] = h
+            columns.append((np.asarray(f(x + e)) - np.asarray(f(x - e))) / (2 * h))
+        return np.moveaxis(np.array(columns), 0, -1).reshape(np.shape(f(x)) + x.shape)
+
+    @staticmethod
+    def neo_hooke(F, K, mu):
+        """Eq. 2 in 3D."""
+        J = np.linalg.det(F)
+        return K / 2 * np.log(J) ** 2 + mu / 2 * (J ** (-2 / 3) * np.sum(F * F) - 3)
+
+    @classmethod
+    def psi(cls, energy, F, G):
+        """Psi of a Hyperelastic, or of a ThirdMedium with the "huhu" regularization and the beta
+        scaling (Eqs. 2, 3, 6, 8)."""
+        p = energy.params
+        if isinstance(energy, sf.Hyperelastic):
+            return cls.neo_hooke(F, p["K"], p["mu"])
+        s = np.exp(-p["beta"] * np.linalg.det(F))
+        return p["gamma"] * (cls.neo_hooke(F, p["K"], p["mu"]) + p["alpha_r"] * s * np.sum(G * G) / 2)
+
+
+by_hand_fixture = shared(ByHand, "by_hand")

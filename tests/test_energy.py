@@ -46,16 +46,6 @@ def evaluate_energy(energy, F, G):
     return evaluate(compile_kernels(energy), F, G, energy.params)
 
 
-def central_difference(f, x):
-    """d f / d x by central differences, shape f(x).shape + x.shape."""
-    columns = []
-    for index in np.ndindex(x.shape):
-        e = np.zeros_like(x)
-        e[index] = STEP
-        columns.append((np.asarray(f(x + e)) - np.asarray(f(x - e))) / (2 * STEP))
-    return np.moveaxis(np.array(columns), 0, -1).reshape(np.shape(f(x)) + x.shape)
-
-
 def assert_close(actual, expected, what):
     error = np.linalg.norm(actual - expected)
     assert error <= RTOL * np.linalg.norm(expected), f"{what}: |error| = {error:.3e}, |exact| = " \
@@ -65,7 +55,10 @@ def assert_close(actual, expected, what):
 # ---------------------------------------------------------------------------- derivatives
 @pytest.mark.parametrize("seed", [1, 2])
 @pytest.mark.parametrize("name", ENERGIES)
-def test_derivatives_match_finite_differences(name, seed):
+def test_derivatives_match_finite_differences(name, seed, by_hand):
+    def central_difference(f, x):
+        return by_hand.central_difference(f, x, STEP)
+
     energy = ENERGIES[name]
     F, G = state(seed)
     q = evaluate_energy(energy, F, G)

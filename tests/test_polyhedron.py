@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from dolfinx_sfvem.monomials3d import evaluate_monomials3, exponents3, monomial_index3, n_monomials3
-from dolfinx_sfvem.polyhedron import (face_quadrature, polyhedron_edges, polyhedron_geometry,
+from dolfinx_sfvem.monomials3d import (evaluate_monomials3, exponents3, monomial_index3, monomial_matrix3,
+                                       n_monomials3)
+from dolfinx_sfvem.polyhedron import (energy_quadrature, face_quadrature, polyhedron_edges, polyhedron_geometry,
                                       polyhedron_monomial_integrals, polyhedron_quadrature, validate_polyhedron)
 
 
@@ -130,3 +131,28 @@ def test_bad_polyhedra_are_rejected(damage, message, polyhedra):
         validate_polyhedron(points, faces)
     with pytest.raises(ValueError, match=message):
         polyhedron_quadrature(points, faces, 2)
+
+
+@pytest.mark.parametrize("name, rule, points_at_most", [
+    ("cube", "auto", 6 ** 3), ("cube, 6 refined neighbours", "auto", 10 ** 3),
+    ("triangle prism", "compressed", 286), ("L prism (non-convex)", "auto", None)])
+def test_energy_quadrature_is_exact(polyhedra, name, rule, points_at_most):
+    """Boxes (octree cells with hanging vertices too) get the tensor rule, "compressed" at most
+    dim P_degree points, others the sub-tetrahedral rule: all exact for the monomials of the degree
+    (against the divergence-theorem integrals)."""
+    points, faces = polyhedra[name]
+    degree = 18 if "refined" in name else 10
+    x, w = energy_quadrature(points, faces, degree, rule)
+    g = polyhedron_geometry(points, faces)
+    exact = polyhedron_monomial_integrals(points, faces, g.centroid, g.diameter, degree)
+    computed = monomial_matrix3(x, g.centroid, g.diameter, degree) @ w
+    np.testing.assert_allclose(computed, exact, rtol=0, atol=1e-12 * g.volume)
+    if points_at_most is None:
+        assert w.size == polyhedron_quadrature(points, faces, degree)[1].size
+    else:
+        assert w.size <= points_at_most and w.min() > 0
+
+
+def test_energy_quadrature_names_its_rules():
+    with pytest.raises(ValueError, match="'tensor'"):
+        energy_quadrature(np.eye(3), [], 2, "tensor")
