@@ -22,6 +22,7 @@ polygons inside numba and returns the flattened :class:`Projections`.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba
@@ -560,8 +561,30 @@ def _build_all(points, offsets, vertices, polygons, l_from, l_to, tol, Pi_nabla_
     return status, l, nullities, centroid, diameter, area, Pi_nabla_flat, Pi_m_offsets, Pi_m_flat[:Pi_m_offsets[-1]]
 
 
+class ProjectionBlocks:
+    """The per-cell views of flattened projections, in any dimension d (the polygons' :class:`Projections`
+    and the polyhedra's :class:`~dolfinx_sfvem.projection3d.Projections3D`): needs the attributes
+    ``l``, ``centroid`` (n, d), ``Pi_nabla_offsets``, ``Pi_nabla``, ``Pi_m_offsets``, ``Pi_m``."""
+
+    def Pi_nabla_of(self, j: int) -> npt.NDArray[np.float64]:
+        """Pi_nabla of cell j, (dim P_2, n_d_j): (6, n_d_j) in 2D, (10, n_d_j) in 3D (a view)."""
+        d = self.centroid.shape[1]
+        return self.Pi_nabla[self.Pi_nabla_offsets[j]:self.Pi_nabla_offsets[j + 1]].reshape(math.comb(2 + d, d), -1)
+
+    def Pi_m_of(self, j: int) -> npt.NDArray[np.float64]:
+        """Pi_m of cell j, (d, dim P_l_j, n_d_j) (a view)."""
+        d = self.centroid.shape[1]
+        block = self.Pi_m[self.Pi_m_offsets[j]:self.Pi_m_offsets[j + 1]]
+        return block.reshape(d, math.comb(int(self.l[j]) + d, d), -1)
+
+    def histogram(self) -> dict[int, int]:
+        """Number of cells per degree l, {l: count}, increasing l."""
+        values, counts = np.unique(self.l, return_counts=True)
+        return {int(v): int(c) for v, c in zip(values, counts)}
+
+
 @dataclass(frozen=True)
-class Projections:
+class Projections(ProjectionBlocks):
     """Pi^nabla_2 and Pi^0_l nabla of a set of polygons, flattened for the compiled loops.
 
     Polygon j (0..n-1, in the order they were built) has nd_j = 2 N_j + 1 scalar DOFs
@@ -597,20 +620,6 @@ class Projections:
     @property
     def n_polygons(self) -> int:
         return self.l.size
-
-    def Pi_nabla_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_nabla of polygon j, (6, nd_j) (a view)."""
-        return self.Pi_nabla[self.Pi_nabla_offsets[j]:self.Pi_nabla_offsets[j + 1]].reshape(6, -1)
-
-    def Pi_m_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_m of polygon j, (2, nl_j, nd_j) (a view)."""
-        block = self.Pi_m[self.Pi_m_offsets[j]:self.Pi_m_offsets[j + 1]]
-        return block.reshape(2, n_monomials(int(self.l[j])), -1)
-
-    def histogram(self) -> dict[int, int]:
-        """Number of polygons per degree l, {l: count}, increasing l."""
-        values, counts = np.unique(self.l, return_counts=True)
-        return {int(v): int(c) for v, c in zip(values, counts)}
 
     def summary(self) -> str:
         """One line: polygon count and the distribution of l."""

@@ -48,8 +48,8 @@ from .monomials3d import evaluate_monomials3, exponents3, monomial_index3, n_mon
 from .polyhedron import (_edges, _geometry, face_frame, face_quadrature, face_triangles, faces_csr,
                          map_triangle_rule, monomial_integrals_from_faces, plane_coordinates, polyhedron_quadrature,
                          validate_polyhedron)
-from .projection import (RANK_TOL, cholesky, count_zero_eigenvalues, gradient_projection, orthonormal_moments,
-                         pi_nabla_2, polygon_geometry, projection_system, rank_of_projection)
+from .projection import (RANK_TOL, ProjectionBlocks, cholesky, count_zero_eigenvalues, gradient_projection,
+                         orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system, rank_of_projection)
 from .quadrature import triangle_rule
 
 #: smallest and largest l tried by the automatic choice (docs/method.md §8; l_min = 3 as in 2D)
@@ -611,7 +611,7 @@ def _csr(arrays) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class Projections3D:
+class Projections3D(ProjectionBlocks):
     """Pi^nabla_2 and Pi^0_l nabla of many polyhedra, flattened for compiled loops.
 
     Cell j (0..n-1, in the order built) has the local vertices ``vertices_of(j)`` (global numbers,
@@ -645,19 +645,6 @@ class Projections3D:
         """Global vertex numbers of cell j, in local order."""
         return self.vertices[self.vertex_offsets[j]:self.vertex_offsets[j + 1]]
 
-    def Pi_nabla_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_nabla of cell j, (10, n_d_j) (a view)."""
-        return self.Pi_nabla[self.Pi_nabla_offsets[j]:self.Pi_nabla_offsets[j + 1]].reshape(10, -1)
-
-    def Pi_m_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_m of cell j, (3, n_l_j, n_d_j) (a view)."""
-        block = self.Pi_m[self.Pi_m_offsets[j]:self.Pi_m_offsets[j + 1]]
-        return block.reshape(3, n_monomials3(int(self.l[j])), -1)
-
-    def histogram(self) -> dict[int, int]:
-        """Number of cells per degree l, {l: count}, increasing l."""
-        values, counts = np.unique(self.l, return_counts=True)
-        return {int(v): int(c) for v, c in zip(values, counts)}
 
 
 def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, face_vertices: npt.ArrayLike,
