@@ -88,15 +88,20 @@ def _grid(mesh, x: np.ndarray, cells: np.ndarray):
 
 def _contact_view(mesh, x, surface, pressure):
     """Where the contact is and its normal: the centre of the contact zone (the surface's vertices with
-    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal
-    (None, None without a pressure)."""
+    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal,
+    or, where the zone faces itself (both walls of a gap, their normals cancelling: a PneuNet's
+    chambers), the normals' principal axis (None, None without a pressure)."""
     if surface is None or pressure is None or not np.any(pressure > 0.0):
         return None, None
     keys = surface.node_keys
     vertex = keys < mesh.points.shape[0]
     p = np.where(vertex, pressure, 0.0)
     zone = p > PRESSURE_THRESHOLD * p.max()
-    normal = surface.node_normal[zone].sum(axis=0)
+    normals = surface.node_normal[zone]
+    normal = normals.sum(axis=0)
+    if np.linalg.norm(normal) < 0.5 * normals.shape[0]:
+        axis = np.linalg.eigh(normals.T @ normals)[1][:, -1]
+        normal = axis if axis @ normal >= 0.0 else -axis
     return x[keys[zone]].mean(axis=0), normal / max(np.linalg.norm(normal), 1e-300)
 
 
