@@ -78,6 +78,13 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
         ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
     ],
+    "pneunet3d": [
+        ("pneunet3d-curves.png", "2 chambers, Q2 hexahedra, h = 2: tip angle, smallest gap and mean chamber volume "
+                                 "change against the chamber pressure (dotted: first contact)"),
+        ("pneunet3d-clip.png", "At 10 kPa, cut normal to y through the contact: the sidewalls meet across the gap"),
+        ("pneunet3d-deformed.png", "The deformed half actuator at 10 kPa, medium hidden"),
+        ("pneunet3d-pressure.png", "The medium's contact pressure on the free chamber's sidewall at 10 kPa"),
+    ],
     "thick_sphere": [
         ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "
                                          "change) against the unknowns, four cases: O(h^2), set by the flat faces"),
