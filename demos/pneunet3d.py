@@ -28,7 +28,7 @@ gaps; docs/pneunet3d.md). FEM only (the SFVEM on polyhedra is not there yet).
 
 Outputs
 -------
-Per step the pressure, θ the bending angle of the tip (the clockwise rotation, seen from +y, of
+Per step the pressure, θ the bending angle of the tip (the clockwise rotation, seen from -y, of
 the tip face x = L by its corners ``tip_bottom`` and ``tip_top`` on y = 0: θ = π/2 - atan2(Δz,
 Δx) of their deformed difference; the actuator bends towards its base, θ > 0), the smallest gap
 between the solids' surfaces (the run's contact check; initially the 2 mm spacing between
