@@ -40,7 +40,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from accuracy_plan import EXAMPLES, Config, plan  # noqa: E402
 from accuracy_report import analyse, as_json, markdown  # noqa: E402
-from run import PYTHON  # noqa: E402
+from run import PYTHON, mpi_launcher  # noqa: E402
 
 
 def record_path(out: pathlib.Path, config: Config) -> pathlib.Path:
@@ -80,7 +80,7 @@ def launch(config: Config, out: pathlib.Path) -> dict | None:
     start = time.perf_counter()
     with open(out / "logs" / f"{config.name}.log", "w") as log:
         proc = subprocess.Popen(command(config, out), stdout=log, stderr=subprocess.STDOUT,
-                                env={**os.environ, "OMP_NUM_THREADS": "1"})
+                                env=mpi_launcher.job_environment(OMP_NUM_THREADS="1"))
         try:
             code = proc.wait()
         except KeyboardInterrupt:

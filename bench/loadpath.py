@@ -36,7 +36,7 @@ import typing
 
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from run import PYTHON  # noqa: E402
+from run import PYTHON, mpi_launcher  # noqa: E402
 
 #: example -> (demo module, its options); quick sizes for checking the pipeline in minutes
 EXAMPLES: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -78,7 +78,7 @@ def run_case(out: pathlib.Path, example: str, method: str, line_search: str,
     print(f"[loadpath] {name}: {' '.join(options)}", flush=True)
     start = time.perf_counter()
     with open(log, "w") as f:
-        code = subprocess.call(cmd, stdout=f, stderr=subprocess.STDOUT, env={**os.environ, "OMP_NUM_THREADS": "1"})
+        code = subprocess.call(cmd, stdout=f, stderr=subprocess.STDOUT, env=mpi_launcher.job_environment(OMP_NUM_THREADS="1"))
     if code != 0 or not raw.exists():
         raise RuntimeError(f"load-path process {name} failed (exit code {code}); see {log}")
     record = {**json.loads(raw.read_text()), "example": example, "line_search": line_search}

@@ -62,9 +62,7 @@ mpi_launcher = _load_mpi_launcher()
 
 def cache_env(cache: pathlib.Path) -> dict[str, str]:
     """The environment of a benchmark process with its numba and FFCx caches under ``cache``."""
-    env = dict(os.environ)
-    env.update(NUMBA_CACHE_DIR=str(cache / "numba"), XDG_CACHE_HOME=str(cache / "xdg"), OMP_NUM_THREADS="1")
-    return env
+    return mpi_launcher.job_environment(NUMBA_CACHE_DIR=str(cache / "numba"), XDG_CACHE_HOME=str(cache / "xdg"), OMP_NUM_THREADS="1")
 
 
 class Runner:

@@ -49,7 +49,7 @@ def run_case(out: pathlib.Path, grid: str, ranks: int, solver: str, state: str) 
     elif reference.exists():
         cmd += ["--compare", str(reference)]
     with open(out / f"{name}.log", "w") as f:
-        code = subprocess.call(cmd, stdout=f, stderr=subprocess.STDOUT, env={**os.environ, "OMP_NUM_THREADS": "1"})
+        code = subprocess.call(cmd, stdout=f, stderr=subprocess.STDOUT, env=mpi_launcher.job_environment(OMP_NUM_THREADS="1"))
     if code != 0 or not (out / f"{name}.json").exists():
         return None
     return json.loads((out / f"{name}.json").read_text())

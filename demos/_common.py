@@ -43,6 +43,7 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem import last_word
 from dolfinx_sfvem.snes import DEFAULT_PREFIX, options_from_tokens
 
 METHODS = ("vem", "fem")
@@ -347,24 +348,28 @@ CRASHED = 3
 
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
               argv: typing.Sequence[str] | None = None) -> int:
-    """Run a demo's ``main(argv)``; expected failures become a message on stderr and exit code 2,
+    """Run a demo's ``main(argv)`` with :mod:`~dolfinx_sfvem.last_word` armed (a library that ends
+    the process with ``exit()`` still leaves a message); expected failures become a message on stderr and exit code 2,
     any other exception its traceback and :func:`crash_message` on stderr and exit code
     :data:`CRASHED`. In parallel both end every rank through ``MPI_Abort`` (an error raised on
     one rank alone would leave the others waiting in a collective), and each rank that raised
     names itself."""
     comm = MPI.COMM_WORLD
+    last_word.arm()
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
         rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
         print(f"{rank}error: {err}", file=sys.stderr, flush=True)
         if comm.size > 1:
+            last_word.disarm()
             comm.Abort(2)
         return 2
     except Exception as err:
         traceback.print_exc()
         print(crash_message(err, MPI.COMM_WORLD), file=sys.stderr, flush=True)
         if MPI.COMM_WORLD.size > 1:
+            last_word.disarm()
             MPI.COMM_WORLD.Abort(CRASHED)
         return CRASHED
 

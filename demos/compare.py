@@ -67,9 +67,7 @@ def run_demo(script: pathlib.Path, method: str, out: pathlib.Path, options: typi
     print(f"[{method}] {' '.join(cmd)}", flush=True)
     t0 = time.perf_counter()
     with open(out.parent / f"{method}.log", "w") as log:
-        # os.environ is Python's start-up copy: it lacks the variables this process's MPI
-        # initialisation (importing the package initialises mpi4py) set, with which mpirun fails
-        code = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+        code = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=mpi_launcher.job_environment())
     wall = time.perf_counter() - t0
     print(f"[{method}] exit code {code}, {wall:.1f} s (log: {out.parent / f'{method}.log'})", flush=True)
     return code, wall

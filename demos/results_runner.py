@@ -52,8 +52,7 @@ def launch(run: Run, root: pathlib.Path, resume: bool, retry_failed: bool) -> in
     cmd = [*mpi_launcher.command(run.ranks), sys.executable, str(DEMOS / f"{run.demo}.py"), *run.argv, *where,
            *(("--retry-failed",) if run.sweep and retry_failed else ())]
     (root / "logs").mkdir(parents=True, exist_ok=True)
-    # os.environ is Python's start-up copy, without the variables MPI initialisation set (see compare)
-    env = {"OMP_NUM_THREADS": "1", **os.environ}
+    env = mpi_launcher.job_environment({"OMP_NUM_THREADS": "1", **os.environ})   # a job of its own
     with open(root / "logs" / f"{run.name}.log", "a") as log:
         log.write(f"\n# {datetime.datetime.now().isoformat(timespec='seconds')}: {' '.join(cmd)}\n")
         log.flush()

@@ -28,6 +28,7 @@ import contextlib
 import ctypes
 import functools
 import inspect
+import pathlib
 
 with contextlib.suppress(ImportError):
     import dolfinx_solver  # noqa: F401  (the dolfinx-solver-* wheels: MPI before the bindings)
@@ -61,6 +62,12 @@ DOLFINX_VERSION = dolfinx.__version__
 INSERT_VALUES = 1
 
 
+def jit_cache_dir() -> pathlib.Path:
+    """The directory of DOLFINx's JIT cache (its ``cache_dir`` parameter or option)."""
+    options = dolfinx.jit.get_options() if hasattr(dolfinx.jit, "get_options") else dolfinx.jit.get_parameters()
+    return pathlib.Path(options["cache_dir"]).expanduser()
+
+
 # --------------------------------------------------------------------------- mesh
 def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Destinations [owner, ranks of facet neighbours owned elsewhere] of every cell (CSR)."""
@@ -73,13 +80,40 @@ def _facet_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.
     twin = np.flatnonzero(key[1:] == key[:-1])
     a, b = cell[twin], cell[twin + 1]
     cross = owner[a] != owner[b]
-    ghost_cell = np.concatenate([a[cross], b[cross]])
-    ghost_rank = np.concatenate([owner[b[cross]], owner[a[cross]]])
-    pairs = np.unique(np.stack([np.concatenate([np.arange(n), ghost_cell]),
-                                np.concatenate([np.full(n, -1), ghost_rank])], axis=1), axis=0)
+    return _destinations_csr(owner, np.concatenate([a[cross], b[cross]]),
+                             np.concatenate([owner[b[cross]], owner[a[cross]]]))
+
+
+def _vertex_ghost_destinations(cells: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Destinations [owner, ranks owning a cell that shares a vertex with it] of every cell (CSR).
+
+    In 3D two ranks' cells may share an edge or a vertex only; ghosting every cell to the owners of
+    all its vertex neighbours lets DOLFINx 0.5.2 see every shared vertex (:func:`create_triangle_mesh`)."""
+    n, k = cells.shape
+    entry_cell = np.repeat(np.arange(n), k)
+    n_ranks = int(owner.max(initial=0)) + 1
+    vertex_rank = np.unique(cells.ravel() * n_ranks + owner[entry_cell])       # sorted by vertex, then rank
+    vertex = vertex_rank // n_ranks
+    start = np.searchsorted(vertex, cells.ravel(), "left")
+    count = np.searchsorted(vertex, cells.ravel(), "right") - start
+    ranks = vertex_rank[np.repeat(start - np.cumsum(count) + count, count) + np.arange(count.sum())] % n_ranks
+    ghost_cell = np.repeat(entry_cell, count)
+    other = ranks != owner[ghost_cell]
+    return _destinations_csr(owner, ghost_cell[other], ranks[other])
+
+
+def _destinations_csr(owner: np.ndarray, ghost_cell: np.ndarray, ghost_rank: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (data, offsets) of the ranks of every cell: its owner first, then the distinct ranks
+    ``ghost_rank`` of the entries ``ghost_cell`` (ranks other than the owner)."""
+    n = owner.size
+    span = int(max(owner.max(initial=0), np.max(ghost_rank, initial=0))) + 2
+    pairs = np.unique(np.concatenate([np.arange(n) * span, np.asarray(ghost_cell, dtype=np.int64) * span
+                                      + np.asarray(ghost_rank, dtype=np.int64) + 1]))
+    cell, rank = pairs // span, pairs % span - 1
     # the owner comes first: it was entered with rank -1, which sorts first within a cell
-    data = np.where(pairs[:, 1] < 0, owner[pairs[:, 0]], pairs[:, 1]).astype(np.int32)
-    offsets = np.concatenate([[0], np.cumsum(np.bincount(pairs[:, 0], minlength=n))]).astype(np.int32)
+    data = np.where(rank < 0, owner[cell], rank).astype(np.int32)
+    offsets = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=n))]).astype(np.int32)
     return data, offsets
 
 
@@ -159,6 +193,23 @@ def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.ND
     with ``GhostMode.none``, silently yields disconnected pieces. So in parallel every
     cell is also sent, as a ghost, to the owners of its facet neighbours.
     """
+    return _create_mesh_distributed(comm, cells, x, destinations, "triangle", _facet_ghost_destinations)
+
+
+def create_tetrahedron_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
+                            destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
+    """Create a distributed affine tetrahedron mesh with a prescribed cell distribution.
+
+    As :func:`create_triangle_mesh`, with ``cells`` (n_cells, 4) and ``x`` (n_nodes, 3); in
+    parallel every cell is also sent, as a ghost, to the owners of all cells that share a vertex
+    with it (in 3D ranks may meet at an edge or a vertex only).
+    """
+    return _create_mesh_distributed(comm, cells, x, destinations, "tetrahedron", _vertex_ghost_destinations)
+
+
+def _create_mesh_distributed(comm, cells, x, destinations, cell, ghost_destinations) -> dolfinx.mesh.Mesh:
+    """The mesh of ``cell`` s owned by ``destinations``, ghosted in parallel by
+    ``ghost_destinations(cells, owner)`` (CSR of owner and ghost ranks)."""
     owner = np.ascontiguousarray(destinations, dtype=np.int32)
     if owner.shape != (len(cells),):
         raise ValueError(f"one destination per input cell expected: {owner.shape} for {len(cells)} cells")
@@ -166,9 +217,9 @@ def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.ND
         csr = owner, np.arange(owner.size + 1, dtype=np.int32)
         ghost_mode = dolfinx.mesh.GhostMode.none
     else:
-        csr = _facet_ghost_destinations(np.asarray(cells, dtype=np.int64), owner)
+        csr = ghost_destinations(np.asarray(cells, dtype=np.int64), owner)
         ghost_mode = dolfinx.mesh.GhostMode.shared_facet
-    return _create_mesh(comm, cells, x, "triangle", ghost_mode, csr)
+    return _create_mesh(comm, cells, x, cell, ghost_mode, csr)
 
 
 def num_owned_cells(mesh: dolfinx.mesh.Mesh) -> int:
@@ -212,6 +263,14 @@ def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.F
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
             return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
         return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+
+
+def scalar_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+    """Scalar Lagrange space of ``degree``."""
+    with compiling():
+        if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
+            return dolfinx.fem.functionspace(mesh, ("Lagrange", degree))
+        return dolfinx.fem.FunctionSpace(mesh, ("Lagrange", degree))
 
 
 def interpolation_matrix(V_from: dolfinx.fem.FunctionSpace, V_to: dolfinx.fem.FunctionSpace) -> PETSc.Mat:

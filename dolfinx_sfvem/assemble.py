@@ -328,8 +328,9 @@ def tangent_loop(kernel, c, F_at, G_at, D_at, A_at, B_at, uses_gradient, polygon
 
 
 @numba.njit(cache=True)
-def coo_pattern(dof_off, dofs, global_node, coo_off):
-    """Global row/column indices of the dense node-major element blocks, in polygon order."""
+def coo_pattern(dof_off, dofs, global_node, coo_off, bs=2):
+    """Global row/column indices of the dense node-major element blocks, in element order
+    (``bs`` components per node: unknown ``bs * global node + i``)."""
     n = coo_off[-1]
     rows = np.empty(n, dtype=np.int32)
     cols = np.empty(n, dtype=np.int32)
@@ -338,12 +339,12 @@ def coo_pattern(dof_off, dofs, global_node, coo_off):
         nd = d1 - d0
         pos = coo_off[e]
         for a in range(nd):
-            for i in range(2):
-                r = 2 * global_node[dofs[d0 + a]] + i
+            for i in range(bs):
+                r = bs * global_node[dofs[d0 + a]] + i
                 for b in range(nd):
-                    for mm in range(2):
+                    for mm in range(bs):
                         rows[pos] = r
-                        cols[pos] = 2 * global_node[dofs[d0 + b]] + mm
+                        cols[pos] = bs * global_node[dofs[d0 + b]] + mm
                         pos += 1
     return rows, cols
 

@@ -42,6 +42,7 @@ import typing
 
 import ffcx.codegeneration.jit
 
+from . import last_word
 from .logs import quiet_compilers, say
 
 log = logging.getLogger(__name__)
@@ -60,7 +61,7 @@ def compiling() -> typing.Iterator[None]:
     """Context of every JIT compile of the package: the compilers' chatter kept off the console
     (:func:`~dolfinx_sfvem.logs.quiet_compilers`) and each rank's compile under the inter-process
     lock of its cache directory (:func:`locked_compiles`)."""
-    with quiet_compilers(), locked_compiles():
+    with quiet_compilers(), locked_compiles(), last_word.in_phase("compiling forms (FFCx and the C compiler)"):
         yield
 
 

@@ -1,8 +1,9 @@
-"""Plane-strain linear-elastic SFVEM element stiffness of one polygon (paper Eqs. 43, 49-50).
+"""Linear-elastic SFVEM element stiffness of one polygon (plane strain, paper Eqs. 43, 49-50) or
+one polyhedron (3D, docs/method.md §8).
 
 The element is stabilisation-free: K = int_E B^T C B with B built from the L^2 projection
 Pi^0_l grad only. It is the reference for the rank test (docs/method.md §3: exactly 3 zero
-eigenvalues, the rigid motions) and for the patch test of the vector element.
+eigenvalues in 2D, 6 in 3D, the rigid motions) and for the patch test of the vector element.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy.typing as npt
 from .monomials import n_monomials
 from .projection import (build_projections, cholesky, gradient_projection, orthonormal_moments, pi_nabla_2,
                          polygon_geometry, projection_system, validate_polygon)
+from .projection3d import polyhedron_projections
 
 
 def plane_strain_elasticity(young: float, poisson: float) -> npt.NDArray[np.float64]:
@@ -98,3 +100,88 @@ def linear_elastic_stiffness(vertices: npt.ArrayLike, young: float, poisson: flo
         raise ValueError(f"the P_{l} monomial mass matrix of the polygon is numerically singular; "
                          "the polygon is too thin or degenerate for this degree")
     return K, int(l)
+
+
+def isotropic_elasticity(young: float, poisson: float) -> npt.NDArray[np.float64]:
+    """Voigt matrix C (6, 6) of 3D isotropic Hooke's law:
+    [s_xx, s_yy, s_zz, s_yz, s_xz, s_xy] = C [e_xx, e_yy, e_zz, 2 e_yz, 2 e_xz, 2 e_xy]."""
+    if not young > 0.0:
+        raise ValueError(f"Young's modulus must be positive, got {young}")
+    if not -1.0 < poisson < 0.5:
+        raise ValueError(f"Poisson's ratio must lie in (-1, 0.5), got {poisson}")
+    mu = young / (2.0 * (1.0 + poisson))
+    lam = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson))
+    C = np.zeros((6, 6))
+    C[:3, :3] = lam
+    C[np.arange(3), np.arange(3)] += 2.0 * mu
+    C[np.arange(3, 6), np.arange(3, 6)] = mu
+    return C
+
+
+#: Voigt strain rows in 3D: (component, derivative) pairs summed into e_xx, e_yy, e_zz, 2e_yz, 2e_xz, 2e_xy
+_VOIGT_3D = (((0, 0),), ((1, 1),), ((2, 2),), ((1, 2), (2, 1)), ((0, 2), (2, 0)), ((0, 1), (1, 0)))
+
+
+def linear_elastic_stiffness_3d(points: npt.ArrayLike, faces, young: float, poisson: float,
+                                l: int | None = None) -> tuple[npt.NDArray[np.float64], int]:
+    """Linear-elastic SFVEM stiffness of one polyhedron, K = int_E B^T C B (no stabilisation).
+
+    With Q the projected gradient in the L^2(E)-orthonormal basis
+    (:class:`~dolfinx_sfvem.projection3d.PolyhedronProjections`), the Voigt strain row i is
+    B_i = sum over its (component c, derivative d) pairs of Q[d] acting on the DOFs of u_c, and
+    K = sum_ij C_ij B_i^T B_j exactly (polynomial integrand, orthonormal basis).
+
+    Parameters
+    ----------
+    points : (n_v, 3) float
+        Vertices.
+    faces : sequence of int arrays
+        Cyclic faces with outward normals (POLY-INTERFACES.md).
+    young, poisson : float
+        Young's modulus (> 0) and Poisson's ratio (in (-1, 0.5)).
+    l : int, optional
+        Degree of the gradient projection; default the smallest sufficient one
+        (:func:`~dolfinx_sfvem.projection3d.polyhedron_projections`).
+
+    Returns
+    -------
+    K : (3 n_d, 3 n_d) float64
+        Stiffness in the DOF order [the n_d DOFs of u_x, then of u_y, then of u_z], each in the
+        order of :mod:`dolfinx_sfvem.projection3d`.
+    l : int
+        The degree used.
+
+    Raises
+    ------
+    ValueError
+        Bad polyhedron, bad material parameters, or an l that is not sufficient.
+    """
+    C = isotropic_elasticity(young, poisson)
+    P = polyhedron_projections(points, faces, l=l)
+    return stiffness_from_gradient_projection_3d(P.Q, C), P.l
+
+
+def stiffness_from_gradient_projection_3d(Q: npt.NDArray[np.float64], C: npt.NDArray[np.float64]
+                                          ) -> npt.NDArray[np.float64]:
+    """K = int_E B^T C B of one polyhedron from its projected gradient (no stabilisation).
+
+    Parameters
+    ----------
+    Q : (3, n_l, n_d) float64
+        Pi^0_l grad in the L^2(E)-orthonormal basis
+        (:class:`~dolfinx_sfvem.projection3d.PolyhedronProjections`).
+    C : (6, 6) float64
+        Voigt elasticity matrix (:func:`isotropic_elasticity`).
+
+    Returns
+    -------
+    K : (3 n_d, 3 n_d) float64
+        In the DOF order of :func:`linear_elastic_stiffness_3d`.
+    """
+    nl, nd = Q.shape[1:]
+    B = np.zeros((6, nl, 3 * nd))
+    for i, pairs in enumerate(_VOIGT_3D):
+        for c, d in pairs:
+            B[i, :, c * nd:(c + 1) * nd] += Q[d]
+    CB = np.tensordot(C, B, axes=(1, 0))  # (6, nl, 3 nd): CB_i = sum_j C_ij B_j
+    return B.reshape(6 * nl, 3 * nd).T @ CB.reshape(6 * nl, 3 * nd)

@@ -30,6 +30,7 @@ from dataclasses import asdict
 import numpy as np
 from petsc4py import PETSc
 
+from . import last_word
 from .adaptivity import Adaptivity
 from .equilibrium import Equilibrium
 from .gamma_continuation import ContinuedStepSolver, GammaContinuation
@@ -141,7 +142,7 @@ class LoadPath:
                             self._progress(rec)
                             self._warn_instability(rec)
                             if writer is not None:
-                                writer.step(self.records, self._wall(), solver.contact[1])
+                                writer.step(self.records, self._wall(), solver.contact[1], p.boundary)
                             if self.control.passed(rec):
                                 break
                             if adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):
@@ -157,6 +158,8 @@ class LoadPath:
                                                   f"({rec.failure})")
                             self._undo_adaptation(*undo)
                             undo, adapt, refined = None, None, -1
+                        last_word.phase(f"the load step after load {p.load:.6g} "
+                                        f"({sum(r['converged'] for r in self.records)} converged steps)")
                         if refined or stop.requested(p.comm):
                             break
                     solver.destroy()

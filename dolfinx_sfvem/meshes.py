@@ -2,7 +2,9 @@
 
 Every 2D generator returns a :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` whose polygons carry an
 integer region tag (:data:`SOLID`, :data:`MEDIUM`, ...); every 3D one a
-:class:`~dolfinx_sfvem.cell_mesh.CellMesh` of tetrahedra or hexahedra with the same tags. This module
+:class:`~dolfinx_sfvem.cell_mesh.CellMesh` of tetrahedra or hexahedra with the same tags, or, for the
+coming 3D SFVEM, a :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh` (:func:`extrude_polygons`,
+:func:`octree_box`, :func:`voronoi_box`). This module
 only gathers names: the geometries live in :mod:`dolfinx_sfvem.benchmarks` and
 :mod:`dolfinx_sfvem.benchmarks3d`, the mesh-making tools in :mod:`dolfinx_sfvem.meshing`.
 """
@@ -16,8 +18,12 @@ from .meshing.gmsh_io import from_gmsh, gmsh_session, model_cells, region_names,
 from .meshing.gmsh3d import from_gmsh_3d
 from .meshing.grids import quad_rectangle, quads_with_hanging_nodes
 from .meshing.hexahedra import box_grid, extrude, split_hexahedra
+from .meshing.octree import OctreeMesh, octree_box
+from .meshing.prisms import extrude_polygons
+from .meshing.voronoi import voronoi_box
 from .meshing.npz import NPZ_FORMAT, read_polygons, write_polygons
 from .meshing.polygon_sets import PolygonSet, glue
+from .polyhedron_mesh import PolyhedronMesh
 
 __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_grid", "box", "punch", "multi_object",
            "thick_cylinder", "shallow_arch", "BASE_LAYER", "FIRST_CHAMBER", "PneuNet", "pneumatic_actuator",
@@ -25,4 +31,5 @@ __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_g
            "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
            "write_polygons", "NPZ_FORMAT", "describe", "t_junctions",
            "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "thick_sphere",
-           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d"]
+           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d",
+           "PolyhedronMesh", "OctreeMesh", "octree_box", "extrude_polygons", "voronoi_box"]

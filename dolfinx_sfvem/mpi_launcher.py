@@ -14,6 +14,11 @@ the package)::
     python dolfinx_sfvem/mpi_launcher.py -n 2 [--python PATH] [--launcher PATH]
 
 prints the command prefix, e.g. ``/usr/bin/mpiexec -n 2 --allow-run-as-root --oversubscribe``.
+
+A program started from a process that has MPI initialised (a test run, a driver script, a rank
+of an ``mpirun`` job) must get :func:`job_environment`: otherwise it inherits the variables by
+which the parent's MPI knows its own job, and its ``MPI_Init`` joins that job under the parent's
+identity instead of starting its own (docs/notes/2026-11-26-silent-exits.md).
 """
 from __future__ import annotations
 
@@ -25,6 +30,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import typing
 
 OPEN_MPI = "Open MPI"
 MPICH = "MPICH"
@@ -32,6 +38,16 @@ MPICH = "MPICH"
 OPEN_MPI_FLAGS = ("--oversubscribe",)
 #: and as root
 OPEN_MPI_ROOT_FLAGS = ("--allow-run-as-root",)
+
+#: prefixes of the variables through which a launcher or an initialised MPI tells a process which
+#: job it belongs to and where that job's server is: PMIx (Open MPI's singletons and ``mpirun``),
+#: Open MPI's own (ranks, the daemon's URI, session directories), MPICH's Hydra and PMI
+JOB_VARIABLE_PREFIXES = ("PMIX_", "PMI_", "HYDI_", "HYDRA_", "OMPI_COMM_WORLD_", "OMPI_MCA_orte_",
+                         "OMPI_MCA_ess", "OMPI_MCA_pmix", "OMPI_MCA_initial_wdir",
+                         "OMPI_MCA_shmem_RUNTIME_QUERY_hint", "OMPI_MCA_mpi_oversubscribe",
+                         "OMPI_APP_CTX_NUM_PROCS", "OMPI_COMMAND", "OMPI_FILE_LOCATION",
+                         "OMPI_FIRST_RANKS", "OMPI_NUM_APP_CTX", "OMPI_UNIVERSE_SIZE",
+                         "ORTE_SCHIZO_DETECTION", "MPI_LOCALNRANKS", "MPI_LOCALRANKID")
 
 
 def find_launcher(python: str | os.PathLike = sys.executable) -> str:
@@ -95,6 +111,33 @@ def command(np: int | None, python: str | os.PathLike = sys.executable, launcher
     if kind(launcher) == OPEN_MPI:
         flags = OPEN_MPI_FLAGS + (OPEN_MPI_ROOT_FLAGS if hasattr(os, "geteuid") and os.geteuid() == 0 else ())
     return [launcher, "-n", str(int(np)), *flags]
+
+
+def job_environment(base: typing.Mapping[str, str] | None = None, **extra: str) -> dict[str, str]:
+    """The environment for a program that starts an MPI job of its own (serially or through
+    :func:`command`) from a process that may have MPI initialised.
+
+    Pass it as ``env=`` to :mod:`subprocess`: with ``env=None`` the child inherits the process's
+    C-level environment, to which ``MPI_Init`` of an Open MPI singleton added the identity of its
+    job (``PMIX_RANK=0``, ``PMIX_NAMESPACE``, the server's ``PMIX_SERVER_URI*``, ...) and the
+    child's ``MPI_Init`` then connects to the parent's job as the parent's rank.
+
+    Parameters
+    ----------
+    base
+        The variables to start from; default ``os.environ`` (Python's copy of the environment at
+        start-up: without what this process's own ``MPI_Init`` set, but with what a launcher that
+        started this process set).
+    extra
+        Variables to set on top (e.g. ``XDG_CACHE_HOME``).
+
+    Returns
+    -------
+    dict[str, str]
+        ``base`` without the variables named by :data:`JOB_VARIABLE_PREFIXES`, plus ``extra``.
+    """
+    base = os.environ if base is None else base
+    return {**{k: v for k, v in base.items() if not k.startswith(JOB_VARIABLE_PREFIXES)}, **extra}
 
 
 def main(argv: list[str] | None = None) -> int:

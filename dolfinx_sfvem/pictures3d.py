@@ -7,7 +7,8 @@ Three views of a deformed :class:`~dolfinx_sfvem.cell_mesh.CellMesh` (docs/guide
 - ``<prefix>-clip.png``: the mesh cut by a plane through the contact zone, the solids coloured by
   region and the medium as a translucent wireframe, so the gap between the solids shows;
 - ``<prefix>-pressure.png``: the contact pressure on the solids' surface where it exceeds 1 % of
-  its largest value, seen from the side it pushes on, the rest of the solids translucent.
+  its largest value, seen from the side it pushes on (of the surface where it is largest), the
+  rest of the solids translucent.
 
 Rendering is PyVista on VTK's wheels (pinned in pyproject.toml). Offscreen, without a display:
 VTK's EGL window on Mesa (Debian: libegl1, libegl-mesa0, libgl1-mesa-dri; installed by the
@@ -35,6 +36,8 @@ WINDOW_SIZE = (1200, 900)
 PRESSURE_THRESHOLD = 0.01
 #: the solid regions' colours in the cut (light, so the edges show)
 REGION_COLOURS = ("#8fc1a9", "#e0b97a", "#a9b8d9", "#d99a9a", "#c4c4c4")
+#: colour of the third medium's edges in the clipped view
+MEDIUM_COLOUR = "#3060b0"
 #: DOLFINx's vertex order -> VTK's (the hexahedron's faces cyclic)
 VTK_CELLS = {"tetrahedron": (10, [0, 1, 2, 3]), "hexahedron": (12, [0, 1, 3, 2, 4, 5, 7, 6])}
 
@@ -86,22 +89,33 @@ def _grid(mesh, x: np.ndarray, cells: np.ndarray):
     return pyvista.UnstructuredGrid(conn.ravel(), np.full(cells.shape[0], vtk_type, dtype=np.uint8), x)
 
 
+def _medium_normals(surface) -> np.ndarray:
+    """Unit reference outward normals (n_nodes, 3) of the surface's nodes from its sub-triangles that
+    face the medium alone (0 where none does): the direction the contact pressure acts along, which
+    the faces on symmetry planes and outer sides would tilt (the surface's ``node_normal``)."""
+    facing = surface.face_faces_medium[surface.triangle_face]
+    normal = np.zeros((surface.X.shape[0], 3))
+    for corner in range(3):
+        np.add.at(normal, surface.triangles[facing, corner], surface.triangle_normal[facing])
+    return normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+
+
 def _contact_view(mesh, x, surface, pressure):
-    """Where the contact is and its normal: the centre of the contact zone (the surface's vertices with
-    pressure above :data:`PRESSURE_THRESHOLD` of the largest) and its mean reference outward normal,
-    or, where the zone faces itself (both walls of a gap, their normals cancelling: a PneuNet's
-    chambers), the normals' principal axis (None, None without a pressure)."""
+    """Where the contact is and its normal: the centre of the contact zone on the surface that carries
+    the largest pressure (the surface's vertices with pressure above :data:`PRESSURE_THRESHOLD` of the
+    largest whose normal towards the medium is within 90° of that where it is largest) and their mean
+    reference normal towards the medium (None, None without a pressure). The zone lies on both
+    surfaces pressed together (two bodies', or two of one body's in self-contact), whose normals are
+    opposite: taken together, their mean normal would be arbitrary."""
     if surface is None or pressure is None or not np.any(pressure > 0.0):
         return None, None
     keys = surface.node_keys
     vertex = keys < mesh.points.shape[0]
     p = np.where(vertex, pressure, 0.0)
-    zone = p > PRESSURE_THRESHOLD * p.max()
-    normals = surface.node_normal[zone]
-    normal = normals.sum(axis=0)
-    if np.linalg.norm(normal) < 0.5 * normals.shape[0]:
-        axis = np.linalg.eigh(normals.T @ normals)[1][:, -1]
-        normal = axis if axis @ normal >= 0.0 else -axis
+    peak = int(np.argmax(p))
+    normals = _medium_normals(surface)
+    zone = (p > PRESSURE_THRESHOLD * p[peak]) & (normals @ normals[peak] > 0.0)
+    normal = normals[zone].sum(axis=0)
     return x[keys[zone]].mean(axis=0), normal / max(np.linalg.norm(normal), 1e-300)
 
 
@@ -187,15 +201,18 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     # the clip through the contact zone
     plotter = pyvista.Plotter(off_screen=True, window_size=WINDOW_SIZE)
     clipped = solids.clip(normal=normal, origin=origin, crinkle=False)
+    key = []
     for k, tag in enumerate(sorted(set(int(t) for t in tags[solid]))):
         part = clipped.threshold((tag - 0.5, tag + 0.5), scalars="region") if clipped.n_cells else clipped
         if part.n_cells:
-            plotter.add_mesh(part, color=REGION_COLOURS[k % len(REGION_COLOURS)], show_edges=True,
-                             edge_color="#404040", line_width=0.5, label=f"solid, region {tag}")
+            colour = REGION_COLOURS[k % len(REGION_COLOURS)]
+            plotter.add_mesh(part, color=colour, show_edges=True, edge_color="#404040", line_width=0.5, lighting=False)
+            key.append((f"solid, region {tag}", colour))
     if medium.n_cells:
         plotter.add_mesh(medium.clip(normal=normal, origin=origin, crinkle=False), style="wireframe",
-                         color="#3060b0", opacity=0.5, line_width=1, label="third medium")
-    plotter.add_legend(bcolor="white", face="rectangle", size=(0.24, 0.12), loc="lower right")
+                         color=MEDIUM_COLOUR, opacity=0.5, line_width=1)
+        key.append(("third medium (edges)", MEDIUM_COLOUR))
+    _add_key(plotter, key)
     plotter.add_title(f"{prefix}: cut through the contact, normal {_vector(normal)}", font_size=14)
     plotter.camera_position = [tuple(origin + 4.0 * normal * _size(x)), tuple(origin), _up(normal)]
     plotter.reset_camera()
@@ -231,6 +248,14 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     plotter.add_axes()
     save(plotter, "pressure")
     return paths
+
+
+def _add_key(plotter, key: list[tuple[str, str]]) -> None:
+    """A colour key in the lower right corner, one line of text per (label, colour), at a fixed
+    font size inside the window (VTK's legend box scaled its text beyond the window's edge)."""
+    for i, (label, colour) in enumerate(reversed(key)):
+        plotter.add_text(label, position=(int(0.72 * WINDOW_SIZE[0]), 24 + 30 * i), font_size=12,
+                         color=colour)
 
 
 def _vector(v: np.ndarray) -> str:

@@ -47,16 +47,18 @@ _OK, _REPEATED, _ZERO_AREA, _SELF_INTERSECTION = 0, 1, 2, 3
 
 
 # --------------------------------------------------------------------------- input conversion
-def _as_points(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
+def as_points(points: npt.ArrayLike, dim: int = 2) -> npt.NDArray[np.float64]:
+    """``points`` as a C-contiguous (n, dim) float64 array; ValueError naming the malformed input
+    or the first point that is not finite."""
     try:
         x = np.asarray(points)
     except (TypeError, ValueError) as err:
-        raise ValueError(f"points must be an (n, 2) array of floats: {err}") from None
+        raise ValueError(f"points must be an (n, {dim}) array of floats: {err}") from None
     if x.dtype.kind not in "iuf":
-        raise ValueError(f"points must be an (n, 2) array of floats, got dtype {x.dtype}")
+        raise ValueError(f"points must be an (n, {dim}) array of floats, got dtype {x.dtype}")
     x = x.astype(np.float64)
-    if x.ndim != 2 or x.shape[1] != 2:
-        raise ValueError(f"points must have shape (n, 2), got {x.shape}")
+    if x.ndim != 2 or x.shape[1] != dim:
+        raise ValueError(f"points must have shape (n, {dim}), got {x.shape}")
     finite = np.isfinite(x).all(axis=1)
     if not finite.all():
         k = int(np.argmin(finite))
@@ -409,7 +411,7 @@ def _locate(x, points, offsets, vertices, tol):
 
 
 # --------------------------------------------------------------------------- CSR topology
-def _owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+def segment_owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Segment index of every entry of a CSR array with these offsets, (offsets[-1],)."""
     return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
 
@@ -443,6 +445,43 @@ def edge_key(a: npt.ArrayLike, b: npt.ArrayLike, n_points: int) -> npt.NDArray[n
     ``n_points`` points: ``min(a, b) * n_points + max(a, b)``, the same for both directions,
     ordered as the pairs (lower, higher end point)."""
     return np.minimum(a, b) * n_points + np.maximum(a, b)
+
+
+def coordinate_bisection(centroids: npt.NDArray[np.float64], n_parts: int) -> npt.NDArray[np.int32]:
+    """Recursive coordinate bisection of cell centroids (any dimension).
+
+    Each set is cut across its longest centroid extent so that the two halves hold cell counts
+    proportional to their part counts (ties broken by cell index: deterministic).
+
+    Parameters
+    ----------
+    centroids : (n_cells, dim) float64
+    n_parts
+        Number of parts (>= 1).
+
+    Returns
+    -------
+    (n_cells,) int32
+        Part of every cell, in [0, n_parts).
+    """
+    if int(n_parts) != n_parts or n_parts < 1:
+        raise ValueError(f"n_parts must be a positive integer, got {n_parts}")
+    parts = np.zeros(len(centroids), dtype=np.int32)
+
+    def bisect(ids: npt.NDArray[np.int64], first: int, k: int) -> None:
+        if k == 1 or ids.size == 0:
+            parts[ids] = first
+            return
+        c = centroids[ids]
+        axis = int(np.argmax(np.ptp(c, axis=0)))
+        ids = ids[np.lexsort((ids, c[:, axis]))]
+        k_low = k // 2
+        n_low = ids.size * k_low // k
+        bisect(ids[:n_low], first, k_low)
+        bisect(ids[n_low:], first + k_low, k - k_low)
+
+    bisect(np.arange(len(centroids), dtype=np.int64), 0, int(n_parts))
+    return parts
 
 
 class Sides(NamedTuple):
@@ -536,7 +575,7 @@ class PolygonMesh:
 
     def __init__(self, points: npt.ArrayLike, polygons: Iterable[npt.ArrayLike], tags: npt.ArrayLike | None = None, *,
                  insert_hanging_nodes: bool = True) -> None:
-        self.points = _as_points(points)
+        self.points = as_points(points)
         offsets, vertices = _as_csr(polygons, self.points.shape[0])
         self.tags = _as_tags(tags, offsets.size - 1)
         self.region_names: dict[str, int] = {}
@@ -686,11 +725,11 @@ class PolygonMesh:
     @property
     def triangle_polygon(self) -> npt.NDArray[np.int64]:
         """Polygon of every sub-triangle, (n_triangles,)."""
-        return _owner(self.triangle_offsets)
+        return segment_owner(self.triangle_offsets)
 
     def polygon_of_entry(self) -> npt.NDArray[np.int64]:
         """Polygon of every entry of :attr:`vertices`, (offsets[-1],)."""
-        return _owner(self.offsets)
+        return segment_owner(self.offsets)
 
     def polygon(self, i: int) -> npt.NDArray[np.int64]:
         """Vertex indices (N,) of polygon ``i``, counter-clockwise."""
@@ -844,39 +883,9 @@ class PolygonMesh:
 
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:
-        """Recursive coordinate bisection of the polygon centroids.
-
-        Each set is cut across its longer centroid extent so that the two halves hold polygon
-        counts proportional to their part counts (ties broken by polygon index: deterministic).
-
-        Parameters
-        ----------
-        n_parts
-            Number of parts (>= 1).
-
-        Returns
-        -------
-        (n_polygons,) int32
-            Part of every polygon, in [0, n_parts).
-        """
-        if int(n_parts) != n_parts or n_parts < 1:
-            raise ValueError(f"n_parts must be a positive integer, got {n_parts}")
-        parts = np.zeros(self.n_polygons, dtype=np.int32)
-
-        def bisect(ids: npt.NDArray[np.int64], first: int, k: int) -> None:
-            if k == 1 or ids.size == 0:
-                parts[ids] = first
-                return
-            c = self.centroids[ids]
-            axis = int(np.argmax(np.ptp(c, axis=0)))
-            ids = ids[np.lexsort((ids, c[:, axis]))]
-            k_low = k // 2
-            n_low = ids.size * k_low // k
-            bisect(ids[:n_low], first, k_low)
-            bisect(ids[n_low:], first + k_low, k - k_low)
-
-        bisect(np.arange(self.n_polygons, dtype=np.int64), 0, int(n_parts))
-        return parts
+        """Part (n_polygons,) int32 in [0, n_parts) of every polygon: :func:`coordinate_bisection`
+        of the polygon centroids."""
+        return coordinate_bisection(self.centroids, n_parts)
 
     def to_dolfinx(self, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, npt.NDArray[np.int64]]:
         """The DOLFINx triangle mesh of the sub-triangles, each polygon's cells on one rank.

@@ -269,16 +269,16 @@ def orthonormal_moments(L: np.ndarray, R: np.ndarray) -> np.ndarray:
     ----------
     L : (nl, nl) float64
         Cholesky factor of M.
-    R : (2, nl, nd) float64
-        From :func:`projection_system`.
+    R : (D, nl, nd) float64
+        From :func:`projection_system` (D = 2) or the polyhedron's system (D = 3).
 
     Returns
     -------
-    Q : (2, nl, nd) float64
+    Q : (D, nl, nd) float64
     """
     nl = L.shape[0]
     Q = R.copy()
-    for c in range(2):
+    for c in range(R.shape[0]):
         for a in range(nl):  # forward substitution
             for b in range(a):
                 for k in range(Q.shape[2]):
@@ -294,11 +294,11 @@ def gradient_projection(L: np.ndarray, Q: np.ndarray) -> np.ndarray:
 
     Returns
     -------
-    Pi_m : (2, nl, nd) float64
+    Pi_m : (D, nl, nd) float64
     """
     nl = L.shape[0]
     Pi_m = Q.copy()
-    for c in range(2):
+    for c in range(Q.shape[0]):
         for a in range(nl - 1, -1, -1):  # back substitution with L^T
             for b in range(a + 1, nl):
                 for k in range(Q.shape[2]):
@@ -399,18 +399,18 @@ def count_zero_eigenvalues(A: np.ndarray, tol: float) -> int:
 def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
     """Null-space dimensions of the scalar projected gradient and of the projected small strain.
 
-    In the orthonormal basis of :func:`orthonormal_moments`,
-    int_E |Pi grad v|^2 = v~^T (Q0^T Q0 + Q1^T Q1) v~ and
-    int_E sym(Pi grad u) : sym(Pi grad u) = u~^T A u~ with
-    A = [[Q0^T Q0 + Q1^T Q1 / 2, Q1^T Q0 / 2], [Q0^T Q1 / 2, Q1^T Q1 + Q0^T Q0 / 2]]
+    In the orthonormal basis of :func:`orthonormal_moments`, with D = Q.shape[0] the space
+    dimension, int_E |Pi grad v|^2 = v~^T (sum_c Q_c^T Q_c) v~ and
+    int_E sym(Pi grad u) : sym(Pi grad u) = u~^T A u~ with the D x D blocks
+    A_cc = Q_c^T Q_c + 1/2 sum_{d != c} Q_d^T Q_d and A_cd = Q_d^T Q_c / 2 (c != d)
     (the linear-elastic element stiffness for mu = 1/2, lambda = 0). A mode counts as zero when
     its eigenvalue is <= tol^2 lambda_max, i.e. its singular value in the projected
     operator is <= tol sigma_max.
 
     Parameters
     ----------
-    Q : (2, nl, nd) float64
-        From :func:`orthonormal_moments`.
+    Q : (D, nl, nd) float64
+        From :func:`orthonormal_moments`, D = 2 on a polygon, 3 on a polyhedron.
     tol : float
         Relative singular-value tolerance.
 
@@ -419,20 +419,43 @@ def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
     gradient_nullity : int
         dim ker(v~ -> Pi^0_l grad v) on the nd scalar DOFs; 1 (the constants) is right.
     strain_nullity : int
-        dim ker(u~ -> sym Pi^0_l grad u) on the 2 nd vector DOFs (u_x DOFs then u_y DOFs);
-        3 (the rigid motions) is right. These are the zero eigenvalues of the linear-elastic
-        element stiffness (docs/method.md §3 table).
+        dim ker(u~ -> sym Pi^0_l grad u) on the D nd vector DOFs (u_x DOFs, then u_y, ...);
+        D(D+1)/2 (the rigid motions: 3 in 2D, 6 in 3D) is right. These are the zero eigenvalues
+        of the linear-elastic element stiffness (docs/method.md §3 table, §8).
     """
+    D = Q.shape[0]
     nd = Q.shape[2]
-    A00 = Q[0].T @ Q[0]
-    A11 = Q[1].T @ Q[1]
-    A01 = Q[0].T @ Q[1]
-    A = np.empty((2 * nd, 2 * nd))
-    A[:nd, :nd] = A00 + 0.5 * A11
-    A[nd:, nd:] = A11 + 0.5 * A00
-    A[:nd, nd:] = 0.5 * A01.T
-    A[nd:, :nd] = 0.5 * A01
-    return count_zero_eigenvalues(A00 + A11, tol ** 2), count_zero_eigenvalues(A, tol ** 2)
+    gradient = np.zeros((nd, nd))
+    for c in range(D):
+        gradient += Q[c].T @ Q[c]
+    A = np.zeros((D * nd, D * nd))
+    for c in range(D):
+        A[c * nd:(c + 1) * nd, c * nd:(c + 1) * nd] = 0.5 * gradient + 0.5 * (Q[c].T @ Q[c])
+        for d in range(D):
+            if d != c:
+                A[c * nd:(c + 1) * nd, d * nd:(d + 1) * nd] = 0.5 * (Q[d].T @ Q[c])
+    return count_zero_eigenvalues(gradient, tol ** 2), count_zero_eigenvalues(A, tol ** 2)
+
+
+@numba.njit(cache=True)
+def rank_of_projection(M: np.ndarray, R: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The rank check of one projection system M Pi_m[c] = R[c] (polygon or polyhedron).
+
+    Returns
+    -------
+    L : (nl, nl) float64
+        Cholesky factor of M.
+    Q : (D, nl, nd) float64
+        :func:`orthonormal_moments`; R itself when M is singular.
+    gradient_nullity, strain_nullity : int
+        :func:`null_space_dimensions`; both -1 if M is numerically singular (:func:`cholesky`).
+    """
+    L, mass_ok = cholesky(M)
+    if not mass_ok:
+        return L, R, -1, -1
+    Q = orthonormal_moments(L, R)
+    gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
+    return L, Q, gradient_nullity, strain_nullity
 
 
 @numba.njit(cache=True)
@@ -484,12 +507,8 @@ def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, 
             l += 1  # rank(sym Pi grad) <= 3 nl < 2(2N+1) - 3: insufficient by counting alone
             continue
         M, R = projection_system(xy, x_E, h_E, Pi_nabla, l)
-        L, mass_ok = cholesky(M)
-        if not mass_ok:
-            return l, -1, -1, L, R
-        Q = orthonormal_moments(L, R)
-        gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
-        if (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
+        L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
+        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
             return l, gradient_nullity, strain_nullity, L, Q
         l += 1
 

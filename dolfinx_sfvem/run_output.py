@@ -1,7 +1,8 @@
 """The files of a run, written as it goes, and resuming a stopped run from them.
 
 A run directory holds ``summary.json`` (:meth:`~dolfinx_sfvem.load_path.LoadPath.summary`),
-``load_path.csv``, ``displacement.xdmf``/``.h5`` and :data:`CHECKPOINT`; all but the XDMF pair
+``load_path.csv``, ``displacement.xdmf``/``.h5`` (the displacement ``u`` and the contact pressure
+:data:`PRESSURE_FIELD` of every converged step) and :data:`CHECKPOINT`; all but the XDMF pair
 are rewritten atomically after every converged step, so a run killed at any moment leaves a
 consistent directory that ``solve(..., resume=True)`` continues (docs/architecture.md).
 """
@@ -14,6 +15,7 @@ import typing
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.spatial
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -35,6 +37,8 @@ LOAD_TOL = 1e-9
 CHECKPOINT = "checkpoint.npz"
 #: first bytes of every HDF5 file (its superblock signature)
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: name of the contact pressure's field in the XDMF series (beside the displacement ``u``)
+PRESSURE_FIELD = "contact_pressure"
 #: summary.json entries that may differ between a stopped run and its resumption
 _RUN_ENTRIES = ("wall_time_s", "converged", "stable", "message", "steps", "ranks")
 
@@ -135,6 +139,47 @@ def progress_line(rec: StepRecord) -> str:
             f"min J {rec.min_J:.3f}  gap {gap:+.3e}{kinked}  {rec.wall_time_s:6.2f} s  dofs {rec.dofs}{reaction}{load}")
 
 
+def nodes_at(X: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The row of ``X`` (n, d) at each of ``points`` (m, >= d; their first d coordinates), -1 where
+    no row is within 1e-9 of X's extent (a k-d tree query)."""
+    X = np.asarray(X, dtype=float)
+    if X.shape[0] == 0:
+        return np.full(points.shape[0], -1, dtype=np.int64)
+    tolerance = 1e-9 * max(float(np.ptp(X, axis=0).max()), 1e-300)
+    distance, row = scipy.spatial.cKDTree(X).query(points[:, :X.shape[1]], distance_upper_bound=tolerance)
+    return np.where(np.isfinite(distance), row, -1).astype(np.int64)
+
+
+class PressureField:
+    """The contact pressure as a field of the output mesh, for the XDMF series: degree 1 on
+    ``mesh`` (``Discretization.dolfinx_mesh``), named :data:`PRESSURE_FIELD`; at the vertices that
+    are boundary nodes of the solids their nodal pressure (:attr:`ContactPressure.pressure`), 0
+    elsewhere (the degree-2 nodes between them are left out, as in the displacement's series).
+    The same for 2D boundaries and 3D surfaces: the vertices are matched to the nodes by
+    reference position (:attr:`ContactPressure.X`), once per mesh.
+
+    Attributes
+    ----------
+    function : dolfinx.fem.Function
+        The field (scalar, degree 1), set by :meth:`set`.
+    """
+
+    def __init__(self, mesh):
+        import dolfinx.fem
+        self.function = dolfinx.fem.Function(_compat.scalar_function_space(mesh, 1), name=PRESSURE_FIELD)
+        self._rows: np.ndarray | None = None          # the row of ContactPressure.X at each local dof
+
+    def set(self, pressure: ContactPressure) -> "dolfinx.fem.Function":
+        """:attr:`function` from ``pressure`` (the same on every rank; not collective)."""
+        if self._rows is None:
+            self._rows = nodes_at(pressure.X, self.function.function_space.tabulate_dof_coordinates())
+        found = self._rows >= 0
+        values = self.function.x.array
+        values[:] = 0.0
+        values[found] = pressure.pressure[self._rows[found]]
+        return self.function
+
+
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:
     with open(path, "rb") as f:
         return f.read(n)
@@ -187,6 +232,7 @@ class RunWriter:
         self.disc, self.x = disc, x
         self.u_p2 = None
         self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(disc.dolfinx_mesh, 1), name="u")
+        self.pressure = PressureField(disc.dolfinx_mesh)
         if self.meshes:
             self.xdmf_path = self.out / f"displacement_refined{self.meshes}.xdmf"
         self.meshes += 1
@@ -208,30 +254,32 @@ class RunWriter:
         return self.comm.bcast(ok, root=0)
 
     def _write_xdmf(self, load: float) -> None:
-        """Append one time step; the file is opened and closed around it, so a run killed
-        between steps leaves a readable series."""
+        """Append one time step (the displacement and the contact pressure); the file is opened
+        and closed around it, so a run killed between steps leaves a readable series."""
         import dolfinx.io
         with dolfinx.io.XDMFFile(self.comm, str(self.xdmf_path), "a" if self.xdmf_started else "w") as f:
             if not self.xdmf_started:
                 f.write_mesh(self.disc.dolfinx_mesh)
             f.write_function(self.u_p1, load)
+            f.write_function(self.pressure.function, load)
         self.xdmf_started = True
 
-    def step(self, records: list[dict], wall: float, pressure: ContactPressure) -> None:
-        """Write the converged step ``records[-1]``: XDMF, checkpoint, a summary marked running
-        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and
-        ``contact_pressure_<load>.png`` of ``pressure`` (its contact pressure) if the step
-        reaches one of the load factors of ``pressure_at``."""
+    def step(self, records: list[dict], wall: float, pressure: ContactPressure, surface=None) -> None:
+        """Write the converged step ``records[-1]``: XDMF (the displacement and ``pressure``'s nodal
+        contact pressure, :data:`PRESSURE_FIELD`), checkpoint, a summary marked running
+        with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and the
+        pictures of the contact pressure (:meth:`_pictures`; ``surface`` the problem's contact
+        checks) if the step reaches one of the load factors of ``pressure_at``."""
         load = records[-1]["load"]
-        method = self.disc.method
         due = [t for t in self.pressure_at if load >= t - LOAD_TOL]
         if due:
             self.pressure_at = self.pressure_at[len(due):]
-            if self.comm.rank == 0 and self.disc.gdim == 2:
-                post.plot_contact_pressure(self.out / f"contact_pressure_{load:.4g}.png", pressure,
-                                           title=f"{method}: contact pressure at load factor {load:.4g}")
+            u = post.gather_to_root(self.comm, *self.disc.output_point_displacements(self.x),
+                                    self.disc.output_mesh.n_points)
+            self._pictures(u, pressure, surface, load, final=False)
         self.u_p2 = self.disc.output_function(self.x, self.u_p2)
         self.u_p1.interpolate(self.u_p2)
+        self.pressure.set(pressure)
         self._write_xdmf(records[-1]["load"])
         partial = self.summary(records, wall, False, RUNNING)
         keys, values = self._gathered(self.x)
@@ -256,28 +304,37 @@ class RunWriter:
         (``u`` the displacements of the output mesh's points on rank 0, ``pressure`` the contact
         pressure, at the nodes of ``surface``, the problem's contact checks)."""
         if self.comm.rank == 0:
-            method = self.disc.method
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])
-            load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
-            if self.disc.gdim == 3:
-                self._pictures_3d(u, pressure, surface)
+        load = max([s["load"] for s in summary["steps"] if s["converged"]], default=0.0)
+        self._pictures(u, pressure, surface, load, final=True)
+
+    def _pictures(self, u: np.ndarray | None, pressure: ContactPressure, surface, load: float, final: bool) -> None:
+        """The pictures of a state at load factor ``load`` (drawn on rank 0; ``u`` the displacements of
+        the output mesh's points there). At the end of the run (``final``): in 2D ``deformed.png``,
+        ``uy.png`` and ``contact_pressure.png`` (:mod:`.post`), in 3D ``final-deformed.png``,
+        ``final-clip.png`` and ``final-pressure.png`` (:func:`.pictures3d.write_pictures_3d`, when
+        PyVista is installed); at a load of ``pressure_at``: ``contact_pressure_<load>.png`` in 2D,
+        ``contact_pressure_<load>-{deformed,clip,pressure}.png`` in 3D."""
+        if self.comm.rank != 0:
+            return
+        name = "contact_pressure" if final else f"contact_pressure_{load:.4g}"
+        if self.disc.gdim == 3:
+            try:
+                from .pictures3d import write_pictures_3d
+            except ImportError:
                 return
+            solids = [tag for tag in np.unique(self.disc.output_mesh.tags).tolist()
+                      if not self.disc.materials[tag].is_medium]
+            checked = pressure.pressure.size > 0
+            write_pictures_3d(self.out, "final" if final else name, self.disc.output_mesh, u, solids,
+                              surface=surface if checked else None, pressure=pressure.pressure if checked else None)
+            return
+        method = self.disc.method
+        if final:
             post.plot_deformed_polygons(self.out / "deformed.png", self.disc.output_mesh, u,
                                         title=f"{method}: load factor {load:.3g}")
             post.plot_deformed_polygons(self.out / "uy.png", self.disc.output_mesh, u, node_values=u[:, 1],
                                         title="u_y")
-            post.plot_contact_pressure(self.out / "contact_pressure.png", pressure,
-                                       title=f"{method}: contact pressure at load factor {load:.3g}")
-
-    def _pictures_3d(self, u: np.ndarray, pressure: ContactPressure, surface) -> None:
-        """The pictures of the last state of a 3D run (rank 0): ``pictures3d.write_pictures_3d`` of
-        the deformed solids, a clip and the contact pressure, when that module is installed."""
-        try:
-            from .pictures3d import write_pictures_3d
-        except ImportError:
-            return
-        solids = [tag for tag in np.unique(self.disc.output_mesh.tags).tolist() if not self.disc.materials[tag].is_medium]
-        checked = pressure.pressure.size > 0
-        write_pictures_3d(self.out, "final", self.disc.output_mesh, u, solids, surface=surface if checked else None,
-                          pressure=pressure.pressure if checked else None)
+        post.plot_contact_pressure(self.out / f"{name}.png", pressure,
+                                   title=f"{method}: contact pressure at load factor {load:{'.3g' if final else '.4g'}}")

@@ -43,8 +43,9 @@ VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
 log = logging.getLogger(__name__)
 
 
-class _EdgeLookup:
-    """Map an (unordered) pair of input node indices to the local P2 node at its midpoint."""
+class EdgeLookup:
+    """Map an (unordered) pair of input node indices to the local P2 node at its midpoint
+    (pairs given as the two end nodes of every local cell edge, with that edge's P2 node)."""
 
     def __init__(self, a: np.ndarray, b: np.ndarray, nodes: np.ndarray, n: int):
         self._n = n
@@ -58,11 +59,131 @@ class _EdgeLookup:
         pos = np.searchsorted(self._keys, keys)
         pos = np.minimum(pos, self._keys.size - 1)
         if not np.all(self._keys[pos] == keys):
-            raise RuntimeError("polygon edge missing from its sub-triangulation")
+            raise RuntimeError("a cell edge (polygon or polyhedron edge) is missing from its sub-mesh")
         return self._nodes[pos]
 
 
-class VEMSpace:
+def number_sfvem_nodes(V: dolfinx.fem.FunctionSpace, comm: MPI.Comm, p2_nodes: npt.NDArray[np.int64]
+                       ) -> tuple[dolfinx.cpp.common.IndexMap, npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Number the SFVEM nodes, a subset of the nodes of a Lagrange space: owned first, then ghosts.
+
+    Collective. A P2 node is an SFVEM node when some local cell (polygon, polyhedron) lists it; its
+    owner is the owner of the P2 node, which must itself list it (else RuntimeError).
+
+    Parameters
+    ----------
+    V
+        The Lagrange space hosting the nodes (its index map gives ownership and ghosts).
+    p2_nodes : (n,) int64
+        Local P2 node of every DOF entry of the local cells (repeats allowed).
+
+    Returns
+    -------
+    index_map : dolfinx.cpp.common.IndexMap
+        Owned/ghost layout of the SFVEM nodes (block size 1).
+    p2_node : (n_local_nodes,) int64
+        Local P2 node of every local SFVEM node.
+    dofs : (n,) int64
+        ``p2_nodes`` as local SFVEM node indices.
+    """
+    im = V.dofmap.index_map
+    n_owned_p2, n_local_p2 = im.size_local, im.size_local + im.num_ghosts
+    is_sfvem = np.zeros(n_local_p2, dtype=bool)
+    is_sfvem[p2_nodes] = True
+    owned = np.flatnonzero(is_sfvem[:n_owned_p2])
+    ghosts = n_owned_p2 + np.flatnonzero(is_sfvem[n_owned_p2:])
+    offset = comm.exscan(owned.size) or 0
+
+    global_index = _compat.create_petsc_vector(im, 1)
+    with global_index.localForm() as g:
+        g.set(-1.0)
+        g.array[owned] = offset + np.arange(owned.size)
+    global_index.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    with global_index.localForm() as g:
+        ghost_global = g.array[ghosts].astype(np.int64)
+    global_index.destroy()
+    if np.any(ghost_global < 0):
+        raise RuntimeError("SFVEM ghost node not owned by any rank")
+    ghost_owners = np.asarray(im.owners, dtype=np.int32)[ghosts - n_owned_p2]
+    index_map = _compat.create_index_map(comm, owned.size, ghost_global, ghost_owners)
+    p2_node = np.concatenate([owned, ghosts])
+    sfvem_of_p2 = np.full(n_local_p2, -1, dtype=np.int64)
+    sfvem_of_p2[p2_node] = np.arange(p2_node.size)
+    return index_map, p2_node, sfvem_of_p2[p2_nodes]
+
+
+class SFVEMNodes:
+    """The sizes and PETSc objects of SFVEM nodes numbered by :func:`number_sfvem_nodes`.
+
+    Subclasses set ``comm``, ``index_map`` (the nodes, block size 1), ``block_size`` (the
+    displacement components: unknown ``block_size * node + i``), ``x_nodes`` (n_local_nodes, gdim),
+    ``tags`` (one per local cell) and the CSR ``dof_offsets``, ``dofs`` of the local cells' nodes.
+    """
+
+    comm: MPI.Comm
+    index_map: dolfinx.cpp.common.IndexMap
+    block_size: int
+
+    @property
+    def n_owned_nodes(self) -> int:
+        return self.index_map.size_local
+
+    @property
+    def n_local_nodes(self) -> int:
+        return self.index_map.size_local + self.index_map.num_ghosts
+
+    @property
+    def num_dofs_global(self) -> int:
+        """Number of SFVEM unknowns (``block_size`` per node) over all ranks."""
+        return self.block_size * self.index_map.size_global
+
+    def create_vector(self) -> PETSc.Vec:
+        """A ghosted PETSc vector of SFVEM unknowns (block size ``block_size``)."""
+        return _compat.create_petsc_vector(self.index_map, self.block_size)
+
+    def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
+                     tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local SFVEM nodes (owned and ghost) selected geometrically and/or by region tag.
+
+        Parameters
+        ----------
+        marker
+            Function of coordinates ``x`` of shape (gdim, n) returning a bool array (n,), as in
+            ``dolfinx.fem.locate_dofs_geometrically``. Mean nodes are located at the node
+            hosting the mean (``x_nodes``).
+        tags
+            Region tags: all nodes of the cells (polygons, polyhedra) with these tags.
+
+        The selection is made consistent across ranks (a node selected on one rank is
+        selected on every rank that holds it).
+        """
+        if marker is None and tags is None:
+            raise ValueError("give a marker function, region tags, or both")
+        selected = np.ones(self.n_local_nodes, dtype=bool)
+        if marker is not None:
+            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
+        if tags is not None:
+            in_tags = np.zeros(self.n_local_nodes, dtype=bool)
+            chosen = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
+            counts = np.diff(self.dof_offsets)
+            in_tags[self.dofs[np.repeat(chosen, counts)]] = True
+            selected &= in_tags
+        return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
+
+    def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
+        """Max-combine a per-node indicator over all ranks that hold the node."""
+        vec = _compat.create_petsc_vector(self.index_map, 1)
+        with vec.localForm() as v:
+            v.array[:] = node_values
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with vec.localForm() as v:
+            out = v.array.copy()
+        vec.destroy()
+        return out
+
+
+class VEMSpace(SFVEMNodes):
     """SFVEM space of order 2 (vector valued, plane) on a :class:`PolygonMesh`.
 
     Parameters
@@ -126,6 +247,7 @@ class VEMSpace:
             raise ValueError(f"unknown quadrature {quadrature!r}; use one of {QUADRATURES}")
         self.polygon_mesh = mesh
         self.comm = comm
+        self.block_size = 2
         self.mesh, cell_polygon = mesh.to_dolfinx(comm)
         self.V = _compat.vector_function_space(self.mesh, 2)
         #: polygon of every local sub-triangle (owned cells first)
@@ -158,7 +280,7 @@ class VEMSpace:
         node_of_input = np.full(n_in, -1, dtype=np.int64)
         node_of_input[inp.ravel()] = p2[:, :3].ravel()
         # P2 edge dof 3 + k sits on the reference edge opposite vertex k
-        edge_node = _EdgeLookup(inp[:, [1, 0, 0]].ravel(), inp[:, [2, 2, 1]].ravel(), p2[:, 3:].ravel(), n_in)
+        edge_node = EdgeLookup(inp[:, [1, 0, 0]].ravel(), inp[:, [2, 2, 1]].ravel(), p2[:, 3:].ravel(), n_in)
 
         P = self.polygons
         N = mesh.offsets[P + 1] - mesh.offsets[P]
@@ -190,31 +312,7 @@ class VEMSpace:
 
     def _number_nodes(self, p2_nodes: np.ndarray, kind: np.ndarray) -> None:
         """Global numbering of the SFVEM nodes: owned P2 nodes that are SFVEM nodes, then ghosts."""
-        im = self.V.dofmap.index_map
-        n_owned_p2, n_local_p2 = im.size_local, im.size_local + im.num_ghosts
-        is_sfvem = np.zeros(n_local_p2, dtype=bool)
-        is_sfvem[p2_nodes] = True
-        owned = np.flatnonzero(is_sfvem[:n_owned_p2])
-        ghosts = n_owned_p2 + np.flatnonzero(is_sfvem[n_owned_p2:])
-        offset = self.comm.exscan(owned.size) or 0
-
-        global_index = _compat.create_petsc_vector(im, 1)
-        with global_index.localForm() as g:
-            g.set(-1.0)
-            g.array[owned] = offset + np.arange(owned.size)
-        global_index.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with global_index.localForm() as g:
-            ghost_global = g.array[ghosts].astype(np.int64)
-        global_index.destroy()
-        if np.any(ghost_global < 0):
-            raise RuntimeError("SFVEM ghost node not owned by any rank")
-        ghost_owners = np.asarray(im.owners, dtype=np.int32)[ghosts - n_owned_p2]
-        self.index_map = _compat.create_index_map(self.comm, owned.size, ghost_global, ghost_owners)
-
-        self.p2_node = np.concatenate([owned, ghosts])           # SFVEM node -> local P2 node
-        sfvem_of_p2 = np.full(n_local_p2, -1, dtype=np.int64)
-        sfvem_of_p2[self.p2_node] = np.arange(self.p2_node.size)
-        self.dofs = sfvem_of_p2[p2_nodes]
+        self.index_map, self.p2_node, self.dofs = number_sfvem_nodes(self.V, self.comm, p2_nodes)
         self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
         self.node_kind[self.dofs] = kind
         self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
@@ -222,27 +320,9 @@ class VEMSpace:
         self.node_point = np.where(self.node_kind == VERTEX, self.node_key, -1)   # mesh point of VERTEX nodes
         self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :2].copy()
 
-    # ------------------------------------------------------------------ sizes
-    @property
-    def n_owned_nodes(self) -> int:
-        return self.index_map.size_local
-
-    @property
-    def n_local_nodes(self) -> int:
-        return self.index_map.size_local + self.index_map.num_ghosts
-
-    @property
-    def num_dofs_global(self) -> int:
-        """Number of SFVEM unknowns (2 per node) over all ranks."""
-        return 2 * self.index_map.size_global
-
     def polygon_dofs(self, k: int) -> np.ndarray:
         """Local SFVEM node indices of local polygon ``k`` ([vertices, midpoints, interior])."""
         return self.dofs[self.dof_offsets[k]:self.dof_offsets[k + 1]]
-
-    def create_vector(self) -> PETSc.Vec:
-        """A ghosted PETSc vector of SFVEM unknowns (block size 2)."""
-        return _compat.create_petsc_vector(self.index_map, 2)
 
     def coarse_interpolation(self) -> PETSc.Mat:
         """The vertex values of a coarse field into the SFVEM unknowns: a vertex node keeps its
@@ -303,48 +383,6 @@ class VEMSpace:
         row, col, val = row[owned], col[owned], val[owned]
         entry = np.unique(row * self.n_local_nodes + col, return_index=True)[1]   # a shared node once
         return row[entry], col[entry], val[entry]
-
-    # ------------------------------------------------------------------ location
-    def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
-                     tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local SFVEM nodes (owned and ghost) selected geometrically and/or by region tag.
-
-        Parameters
-        ----------
-        marker
-            Function of coordinates ``x`` of shape (2, n) returning a bool array (n,), as in
-            ``dolfinx.fem.locate_dofs_geometrically``. Interior nodes are located at the
-            node hosting the polygon mean.
-        tags
-            Region tags: all nodes of the polygons with these tags.
-
-        The selection is made consistent across ranks (a node selected on one rank is
-        selected on every rank that holds it).
-        """
-        if marker is None and tags is None:
-            raise ValueError("give a marker function, region tags, or both")
-        selected = np.ones(self.n_local_nodes, dtype=bool)
-        if marker is not None:
-            selected &= np.asarray(marker(self.x_nodes.T), dtype=bool).reshape(-1)
-        if tags is not None:
-            in_tags = np.zeros(self.n_local_nodes, dtype=bool)
-            chosen = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
-            counts = np.diff(self.dof_offsets)
-            in_tags[self.dofs[np.repeat(chosen, counts)]] = True
-            selected &= in_tags
-        return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
-
-    def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
-        """Max-combine a per-node indicator over all ranks that hold the node."""
-        vec = _compat.create_petsc_vector(self.index_map, 1)
-        with vec.localForm() as v:
-            v.array[:] = node_values
-        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with vec.localForm() as v:
-            out = v.array.copy()
-        vec.destroy()
-        return out
 
     # ------------------------------------------------------------------ output
     def _p2_interpolation(self) -> scipy.sparse.csr_matrix:

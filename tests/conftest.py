@@ -552,3 +552,201 @@ class Tiny3D:
 
 
 tiny3d_fixture = shared(Tiny3D, "tiny3d")
+
+
+# =========================================================================== test polyhedra
+def refined_cube(refined: tuple[int, ...]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The unit cube as an octree cell next to refined neighbours: each face listed in ``refined``
+    (0..5 = -x, +x, -y, +y, -z, +z) is split into 4 quadrilaterals, and every cube edge of a split
+    face carries its midpoint as a hanging vertex in the other face too. Faces outward."""
+    index: dict[tuple, int] = {}
+
+    def vertex(x) -> int:
+        return index.setdefault(tuple(np.round(x, 12)), len(index))
+
+    faces = []
+    for k in range(3):
+        for side in (0, 1):
+            a, b = ((k + 1) % 3, (k + 2) % 3) if side == 1 else ((k + 2) % 3, (k + 1) % 3)  # (e_a x e_b) . n > 0
+
+            def point(u, v):
+                x = np.zeros(3)
+                x[k], x[a], x[b] = side, u, v
+                return vertex(x)
+
+            if 2 * k + side in refined:
+                for u0, v0 in ((0, 0), (0.5, 0), (0.5, 0.5), (0, 0.5)):
+                    faces.append(np.array([point(u0, v0), point(u0 + 0.5, v0), point(u0 + 0.5, v0 + 0.5),
+                                           point(u0, v0 + 0.5)]))
+                continue
+            # a cube edge is split when the face across it is refined
+            split = {(0.5, 0): 2 * b + 0 in refined, (1, 0.5): 2 * a + 1 in refined,
+                     (0.5, 1): 2 * b + 1 in refined, (0, 0.5): 2 * a + 0 in refined}
+            loop = []
+            for corner, middle in (((0, 0), (0.5, 0)), ((1, 0), (1, 0.5)), ((1, 1), (0.5, 1)), ((0, 1), (0, 0.5))):
+                loop.append(point(*corner))
+                if split[middle]:
+                    loop.append(point(*middle))
+            faces.append(np.array(loop))
+    points = np.array(sorted(index, key=index.get), dtype=float)
+    return points, faces
+
+
+refined_cube_fixture = shared(refined_cube)
+
+
+def prism(polygon: np.ndarray, height: float = 1.0) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The prism over a counter-clockwise polygon (N, 2), from z = 0 to z = height."""
+    N = len(polygon)
+    points = np.vstack([np.column_stack([polygon, np.zeros(N)]), np.column_stack([polygon, np.full(N, height)])])
+    faces = [np.arange(N)[::-1], np.arange(N, 2 * N)]
+    faces += [np.array([i, (i + 1) % N, N + (i + 1) % N, N + i]) for i in range(N)]
+    return points, faces
+
+
+def convex_polyhedron(cloud: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The convex hull of a point cloud as a polyhedron: coplanar hull triangles merged into one
+    face, its vertices ordered counter-clockwise about the outward normal."""
+    hull = ConvexHull(cloud)
+    keep = np.unique(hull.simplices)
+    renumber = np.full(len(cloud), -1)
+    renumber[keep] = np.arange(keep.size)
+    points = cloud[keep]
+    planes: dict[tuple, set] = {}
+    for simplex, equation in zip(renumber[hull.simplices], hull.equations):
+        planes.setdefault(tuple(np.round(equation, 9)), set()).update(simplex.tolist())
+    faces = []
+    for equation, members in planes.items():
+        normal, members = np.array(equation[:3]), np.array(sorted(members))
+        centre = points[members].mean(axis=0)
+        t1 = points[members[0]] - centre
+        t2 = np.cross(normal, t1)
+        angle = np.arctan2((points[members] - centre) @ t2, (points[members] - centre) @ t1)
+        faces.append(members[np.argsort(angle)])
+    return points, faces
+
+
+def _truncated_octahedron() -> tuple[np.ndarray, list[np.ndarray]]:
+    """The Voronoi cell of the body-centred cubic lattice: 6 squares and 8 regular hexagons."""
+    import itertools
+    cloud = {p for signs in itertools.product((-1, 1), repeat=2) for p in
+             itertools.permutations((0.0, signs[0] * 1.0, signs[1] * 2.0))}
+    return convex_polyhedron(np.array(sorted(cloud)))
+
+
+def _dented_cube() -> tuple[np.ndarray, list[np.ndarray]]:
+    """The unit cube whose top is four triangles meeting at (0.5, 0.5, 0.6): non-convex, star-shaped."""
+    points, faces = refined_cube(())
+    points = np.vstack([points, [0.5, 0.5, 0.6]])
+    top = next(f for f in faces if np.all(points[f, 2] == 1.0))
+    faces = [f for f in faces if f is not top]
+    faces += [np.array([top[i], top[(i + 1) % 4], len(points) - 1]) for i in range(4)]
+    return points, faces
+
+
+def _tetrahedron() -> tuple[np.ndarray, list[np.ndarray]]:
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.1, 0.0], [0.2, 0.9, 0.1], [0.3, 0.2, 1.1]])
+    return points, [np.array(f) for f in ([0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2])]
+
+
+def octree_polyhedra(n: int, refine) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+    """The unit cube as n^3 cubes, those whose centre satisfies ``refine`` split once into 8, as
+    polyhedra: a cube next to finer ones carries the hanging vertices on its edges and its faces
+    split into the finer cubes' faces (one level: 2:1 balanced by construction)."""
+    cubes = []
+    for i, j, k in np.ndindex(n, n, n):
+        lower, size = np.array([i, j, k]) / n, 1.0 / n
+        if refine(lower + size / 2):
+            cubes += [(lower + size / 2 * np.array(o), size / 2) for o in np.ndindex(2, 2, 2)]
+        else:
+            cubes.append((lower, size))
+    corners = np.unique(np.round([lo + s * np.array(o) for lo, s in cubes for o in np.ndindex(2, 2, 2)], 12), axis=0)
+    tol = 1e-9 / n
+
+    def loop(k, side, a, b, u0, v0, size):
+        """Mesh vertices on the boundary of the square {x_k = side, u in [u0, u0+size], v ...}, counter-clockwise
+        about e_a x e_b; and whether a vertex lies inside it."""
+        on = (np.abs(corners[:, k] - side) < tol) & (corners[:, a] > u0 - tol) & (corners[:, a] < u0 + size + tol) \
+            & (corners[:, b] > v0 - tol) & (corners[:, b] < v0 + size + tol)
+        rim = on & ((np.abs(corners[:, a] - u0) < tol) | (np.abs(corners[:, a] - u0 - size) < tol)
+                    | (np.abs(corners[:, b] - v0) < tol) | (np.abs(corners[:, b] - v0 - size) < tol))
+        angle = np.arctan2(corners[rim, b] - v0 - size / 2, corners[rim, a] - u0 - size / 2)
+        return np.flatnonzero(rim)[np.argsort(angle)], bool(np.any(on & ~rim))
+
+    cells = []
+    for lower, size in cubes:
+        faces = []
+        for k in range(3):
+            for side in (0, 1):
+                a, b = ((k + 1) % 3, (k + 2) % 3) if side == 1 else ((k + 2) % 3, (k + 1) % 3)
+                plane = lower[k] + side * size
+                face, split = loop(k, plane, a, b, lower[a], lower[b], size)
+                if not split:
+                    faces.append(face)
+                    continue
+                for du, dv in np.ndindex(2, 2):
+                    faces.append(loop(k, plane, a, b, lower[a] + du * size / 2, lower[b] + dv * size / 2, size / 2)[0])
+        used, local = np.unique(np.concatenate(faces), return_inverse=True)
+        offsets = np.cumsum([0] + [len(f) for f in faces])
+        cells.append((corners[used], [local[offsets[i]:offsets[i + 1]] for i in range(len(faces))]))
+    return cells
+
+
+def global_dofs(cells) -> tuple[list[np.ndarray], np.ndarray]:
+    """A global numbering of the scalar DOFs of polyhedra that share vertices, edges and faces by
+    position: per cell its global DOF indices in the element's local order (vertices, edges,
+    faces, cell), and the DOF locations (n, 3) (vertex, edge midpoint, face centroid, cell
+    centroid: a linear field's DOFs are its values there)."""
+    from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry
+
+    keys: dict = {}
+    locations = []
+    cell_dofs = []
+    for c, (points, faces) in enumerate(cells):
+        g = polyhedron_geometry(points, faces)
+        vertex = [tuple(np.round(p, 11)) for p in points]
+        local = [(key, np.array(key)) for key in vertex]
+        local += [(frozenset((vertex[i], vertex[j])), points[[i, j]].mean(axis=0)) for i, j in polyhedron_edges(faces)]
+        local += [(frozenset(vertex[i] for i in face), g.face_centroids[f]) for f, face in enumerate(faces)]
+        local.append((("cell", c), g.centroid))
+        for key, x in local:
+            if key not in keys:
+                keys[key] = len(keys)
+                locations.append(x)
+        cell_dofs.append(np.array([keys[key] for key, _ in local]))
+    return cell_dofs, np.array(locations)
+
+
+octree_polyhedra_fixture = shared(octree_polyhedra)
+prism_fixture = shared(prism)
+global_dofs_fixture = shared(global_dofs)
+
+
+#: name -> (points, outward faces); octree cubes with 1..6 refined neighbours
+POLYHEDRA = {
+    "cube": refined_cube(()),
+    "tetrahedron": _tetrahedron(),
+    "triangle prism": prism(np.array([[0.0, 0.0], [1.0, 0.0], [0.3, 0.8]]), 0.7),
+    "pentagon prism": prism(regular_polygon(5), 1.2),
+    "L prism (non-convex)": prism(np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)),
+    "dented cube (non-convex)": _dented_cube(),
+    "random convex hull": convex_polyhedron(np.random.default_rng(5).random((12, 3))),
+    "truncated octahedron (BCC Voronoi cell)": _truncated_octahedron(),
+    **{f"cube, {k} refined neighbour{'s' if k > 1 else ''}": refined_cube(tuple(range(k))) for k in range(1, 7)},
+}
+
+
+@pytest.fixture(scope="session")
+def polyhedra() -> dict[str, tuple[np.ndarray, list[np.ndarray]]]:
+    return POLYHEDRA
+
+
+@pytest.fixture(params=list(POLYHEDRA))
+def polyhedron_name(request) -> str:
+    """Runs a test once per test polyhedron (its name in ``polyhedra``)."""
+    return request.param
+
+
+@pytest.fixture
+def polyhedron(polyhedron_name) -> tuple[np.ndarray, list[np.ndarray]]:
+    return POLYHEDRA[polyhedron_name]

@@ -17,6 +17,8 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.adaptivity import smallest_J
 from dolfinx_sfvem.node_keys import sfvem_unknowns
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -129,7 +131,7 @@ def test_indicator_of_the_wrong_shape_and_fem_are_refused(two_blocks):
 
 def test_demo_adapt_option_needs_the_vem():
     proc = subprocess.run([sys.executable, str(DEMOS / "cbox.py"), "--adapt", "--method", "fem", "--quiet"],
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=120, env=job_environment())
     assert proc.returncode == 2 and "--adapt needs --method vem" in proc.stderr
 
 
@@ -137,8 +139,9 @@ def test_study_script_reduced_run(tmp_path):
     """demos/local_refinement.py --quick: two coarse C-box runs, a page with their rows, study.json."""
     page = tmp_path / "study.md"
     proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
-                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300,
+                          env=job_environment())
+    assert proc.returncode == 0, report(proc)
     runs = json.loads((tmp_path / "study.json").read_text())
     assert [r["label"] for r in runs] == ["uniform h = 0.1", "h = 0.1, adaptive"]
     uniform, adaptive = runs
@@ -151,8 +154,9 @@ def test_study_script_reduced_run(tmp_path):
     # a second call keeps the recorded runs and runs only the missing one
     (tmp_path / "study.json").write_text(json.dumps([uniform]))
     proc = subprocess.run([sys.executable, str(DEMOS / "local_refinement.py"), "--quick", "--quiet",
-                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+                           "--out", str(tmp_path), "--page", str(page)], capture_output=True, text=True, timeout=300,
+                          env=job_environment())
+    assert proc.returncode == 0, report(proc)
     again = json.loads((tmp_path / "study.json").read_text())
     assert again[0] == uniform and again[1]["label"] == "h = 0.1, adaptive" and again[1]["dofs"] == adaptive["dofs"]
 

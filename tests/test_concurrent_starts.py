@@ -16,6 +16,7 @@ import sys
 import pytest
 
 from dolfinx_sfvem import mpi_launcher
+from dolfinx_sfvem.mpi_launcher import job_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 #: run name -> (method, ranks (None: serial))
@@ -41,7 +42,7 @@ def test_runs_started_together_on_an_empty_cache_all_finish(tmp_path):
     for name in ("dolfinx_jit_parameters.json", "dolfinx_jit_options.json"):      # DOLFINx 0.5, 0.11
         (tmp_path / name).write_text(json.dumps({"timeout": JIT_TIMEOUT}))
     # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
-    env = dict(os.environ)
+    env = job_environment()
     env.update(XDG_CACHE_HOME=str(tmp_path / "cache"),
                PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")])))
     processes = {name: start(name, method, ranks, tmp_path, env) for name, (method, ranks) in RUNS.items()}

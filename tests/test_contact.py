@@ -13,6 +13,8 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.contact import OVERLAP_TOLERANCE
 from dolfinx_sfvem.injectivity import folded_elements
 from dolfinx_sfvem.problem import Result
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM, OTHER = 1, 2, 3
@@ -177,13 +179,14 @@ def test_penetrating_run_never_ends_as_converged():
 
 def run_cbox(*args, out):
     return subprocess.run([sys.executable, str(ROOT / "demos" / "cbox.py"), "--h", "0.1", "--quiet", "--out", str(out),
-                           *args], capture_output=True, text=True, cwd=ROOT, timeout=600)
+                           *args], capture_output=True, text=True, cwd=ROOT, timeout=600,
+                          env=job_environment())
 
 
 def test_cbox_gap_is_recorded_per_step(tmp_path):
     proc = run_cbox("--uy", "-0.2", "--steps", "4", "--fixed-increments", "--pressure-at", "0.5", "0.6",
                     out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = json.loads((tmp_path / "summary.json").read_text())
     gaps = [s["gap"]["value"] for s in summary["steps"]]
     assert gaps[0] < 0.3 and all(np.diff(gaps) < 0) and gaps[-1] > 0     # the beams approach

@@ -12,6 +12,8 @@ import sys
 import pytest
 
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMO = pathlib.Path(__file__).resolve().parents[1] / "demos" / "box_self_contact.py"
 
@@ -22,12 +24,12 @@ G0 = 0.3
 
 def run_demo(*args: str, out: pathlib.Path) -> subprocess.CompletedProcess:
     cmd = [sys.executable, str(DEMO), *args, "--out", str(out)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def test_box_single_run(tmp_path):
     proc = run_demo(*SMALL, "--steps", "4", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "converged: yes" in proc.stdout.splitlines()[-1]
 
     summary = read_summary(tmp_path)
@@ -73,7 +75,7 @@ def test_box_single_run(tmp_path):
 def test_box_table2_reduced_and_restart(tmp_path):
     sweep = ["--table2", "--meshes", "1", "--alpha-rs", "10", "1", "--gammas", "1e-4", "--steps", "2", *SMALL]
     proc = run_demo(*sweep, out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert proc.stdout.count(": running") == 2
 
     runs = {a: tmp_path / "huhu_lulu-beta5" / f"alpha_r{a}-gamma1e-04-mesh1" for a in ("10", "1")}
@@ -103,7 +105,7 @@ def test_box_table2_reduced_and_restart(tmp_path):
     # a restarted sweep skips the finished runs and writes the same table
     stamps = {a: (d / "summary.json").stat().st_mtime_ns for a, d in runs.items()}
     again = run_demo(*sweep, out=tmp_path)
-    assert again.returncode == 0, again.stderr
+    assert again.returncode == 0, report(again)
     assert again.stdout.count("converged before, skipped") == 2 and ": running" not in again.stdout
     assert {a: (d / "summary.json").stat().st_mtime_ns for a, d in runs.items()} == stamps
     assert (tmp_path / "table2.md").read_text() == table

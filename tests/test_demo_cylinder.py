@@ -19,6 +19,8 @@ import sys
 import numpy as np
 import pytest
 import thick_cylinder as tc
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -136,8 +138,9 @@ def test_demo_writes_its_comparison(tmp_path):
     """The command line: a dead-pressure run writes cylinder.md and cylinder.png, and its numbers
     are those of the coarse test above."""
     proc = subprocess.run([sys.executable, str(DEMOS / "thick_cylinder.py"), "--load", "dead", "--h", str(H),
-                           "--quiet", "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+                           "--quiet", "--out", str(tmp_path)], capture_output=True, text=True, timeout=300,
+                          env=job_environment())
+    assert proc.returncode == 0, report(proc)
     assert (tmp_path / "cylinder.png").is_file()
     table = (tmp_path / "cylinder.md").read_text().splitlines()[-1].split("|")
     L2, conjugate = float(table[5]), float(table[9])

@@ -13,6 +13,8 @@ import hertz
 import pytest
 
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -35,13 +37,13 @@ def coarse_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("hertz")
     cmd = [sys.executable, str(DEMOS / "hertz.py"), "--h", "0.1", "--steps", "10", "--gamma", "1e-5",
            "--quiet", "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
     return proc, out
 
 
 def test_hertz_demo_coarse_run_matches_hertz(coarse_run):
     proc, out = coarse_run
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "converged: yes" in proc.stdout
     for name in ("hertz.md", "hertz.png", "pressure.csv", "summary.json"):
         assert (out / name).is_file(), name
@@ -72,5 +74,5 @@ def test_hertz_demo_coarse_run_matches_hertz(coarse_run):
 
 def test_hertz_demo_rejects_small_block(tmp_path):
     cmd = [sys.executable, str(DEMOS / "hertz.py"), "--block", "0.8", "--quiet", "--out", str(tmp_path)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=job_environment())
     assert proc.returncode == 2 and "--block" in proc.stderr

@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 OUTPUTS = ("summary.json", "load_path.csv", "displacement.xdmf", "displacement.h5",
@@ -23,13 +25,13 @@ OUTPUTS = ("summary.json", "load_path.csv", "displacement.xdmf", "displacement.h
 def run_demo(name: str, *args: str, out: pathlib.Path) -> subprocess.CompletedProcess:
     """Run ``demos/<name>.py`` serially with the given arguments and ``--out out``."""
     cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args, "--out", str(out)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def check_run(proc: subprocess.CompletedProcess, out: pathlib.Path, n_steps: int, reactions: set[str],
               extra: tuple[str, ...]) -> tuple[RunSummary, list[Step], list[dict]]:
     """Common checks of a completed reduced run; returns summary, converged steps, CSV rows."""
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "Traceback" not in proc.stderr
     assert "converged: yes" in proc.stdout.splitlines()[-1]
     content = json.loads((out / "summary.json").read_text())

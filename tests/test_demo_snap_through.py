@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 import scipy.interpolate
 import snap_through as st
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -21,8 +23,8 @@ def paths(tmp_path_factory) -> dict[str, st.Path]:
     out = tmp_path_factory.mktemp("snap")
     cmd = [sys.executable, str(DEMOS / "snap_through.py"), "--h", "0.015", "--stop", "0.15", "--steps", "16",
            "--load-step", "0.02", "--quiet", "--both", "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=job_environment())
+    assert proc.returncode == 0, report(proc)
     for name in ("load_displacement.png", "snap_through.md"):
         assert (out / name).is_file(), name
     return {f"{method}-{control}": st.read_path(out / f"{method}-{control}", f"{method}-{control}")

@@ -14,6 +14,8 @@ import pytest
 
 from dolfinx_sfvem import mpi_launcher
 from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.mpi_launcher import job_environment
+from process_report import report
 
 DEMOS = pathlib.Path(__file__).resolve().parents[1] / "demos"
 
@@ -24,7 +26,7 @@ SMALL = ["--uy", "-0.1", "--steps", "3", "--h", "0.1", "--quiet"]
 def run_demo(name: str, *args: str, out: pathlib.Path | None = None) -> subprocess.CompletedProcess:
     """Run ``demos/<name>.py`` serially with the given arguments (and ``--out out``)."""
     cmd = [sys.executable, str(DEMOS / f"{name}.py"), *args] + (["--out", str(out)] if out else [])
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=job_environment())
 
 
 def csv_rows(path: pathlib.Path) -> list[dict]:
@@ -34,7 +36,7 @@ def csv_rows(path: pathlib.Path) -> list[dict]:
 
 def test_cbox_outputs(tmp_path):
     proc = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert "converged: yes" in proc.stdout.splitlines()[-1]
 
     content = json.loads((tmp_path / "summary.json").read_text())
@@ -91,7 +93,7 @@ def test_petsc_options_reach_snes(tmp_path):
     code 1 and keeps its (failed) history."""
     proc = run_demo("cbox", "--uy", "-1", "--steps", "2", "--h", "0.1", "--quiet", "-tmc_snes_max_it", "1",
                     out=tmp_path)
-    assert proc.returncode == 1, proc.stderr
+    assert proc.returncode == 1, report(proc)
     assert "Traceback" not in proc.stderr
     assert "converged: no" in proc.stdout.splitlines()[-1]
 
@@ -158,15 +160,14 @@ def main(argv):
 sys.exit(_common.exit_code(main))
 """)
     command = [*mpi_launcher.command(2), sys.executable, str(script)]
-    # os.environ: not this (MPI) process's C environment, whose MPI variables would stop the launcher
-    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=dict(os.environ))
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=600, env=job_environment())
     assert proc.returncode != 0
     assert "rank 1 of 2: " + message.format(script=script) in proc.stderr, proc.stdout + proc.stderr
 
 
 def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
     proc = run_demo("cbox", *SMALL, "--method", "fem", "--fem-jump-penalty", "40", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.converged and summary.method == "fem"
     assert summary.discretization["jump_penalty"] == 40.0 and summary.parameters["fem_jump_penalty"] == 40.0
@@ -176,7 +177,7 @@ def test_fem_jump_penalty_reaches_the_discretization(tmp_path):
 def test_cbox_fem_cells(tmp_path, cells, cell_type):
     """The C-box FEM is Q2 on cbox_grid by default, P2 on a matched triangulation on request."""
     proc = run_demo("cbox", *SMALL, "--method", "fem", *(["--fem-cells", cells] if cells else []), out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.converged and summary.discretization["cell_type"] == cell_type
     if cells is None:                     # h = 0.1: 11 x 5 rectangles, (2 * 11 + 1) (2 * 5 + 1) nodes
@@ -188,13 +189,64 @@ def test_gamma_start_reaches_the_path(tmp_path):
     asked gamma and the schedule; without the option nothing of it is recorded (earlier runs'
     parameters unchanged)."""
     proc = run_demo("cbox", *SMALL, "--method", "vem", "--gamma-start", "1e-3", out=tmp_path)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     summary = read_summary(tmp_path)
     assert summary.parameters["gamma_continuation"]["gamma_start"] == 1e-3
     assert summary.parameters["materials"]["2"]["gamma"] == 1e-5
     for step in summary.converged_steps:
         assert step.extra["gamma"] == pytest.approx(1e-3 ** (1 - step.load) * 1e-5 ** step.load, rel=1e-12)
     plain = run_demo("cbox", *SMALL, "--method", "vem", out=tmp_path / "plain")
-    assert plain.returncode == 0, plain.stderr
+    assert plain.returncode == 0, report(plain)
     params = read_summary(tmp_path / "plain").parameters
     assert "gamma_start" not in params and "gamma_continuation" not in params
+
+
+@pytest.mark.parametrize("status", [1, 7])
+def test_a_library_exit_still_leaves_a_message(tmp_path, status):
+    """A compiled library that ends the process with C's exit() inside a demo's main (no Python
+    exception, no traceback) still leaves a message on stderr: where Python was (the function
+    names of the stack) and the run's last phase; the exit status stays the library's."""
+    script = tmp_path / "library_exits.py"
+    script.write_text(f"""import ctypes, sys
+sys.path.insert(0, {str(DEMOS)!r})
+import _common
+from dolfinx_sfvem import last_word
+
+def deep_inside_a_library():
+    ctypes.CDLL(None).exit({status})
+
+def main(argv):
+    print("started", flush=True)
+    last_word.phase("the load step after load 0.25 (2 converged steps)")
+    deep_inside_a_library()
+    return 0
+
+sys.exit(_common.exit_code(main))
+""")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600,
+                          env=job_environment())
+    assert proc.returncode == status, report(proc)
+    assert "error: the process is ending inside a compiled library's call to exit()" in proc.stderr, report(proc)
+    assert "last phase of the run: the load step after load 0.25 (2 converged steps)" in proc.stderr
+    assert "deep_inside_a_library" in proc.stderr and "in main" in proc.stderr
+
+
+def test_a_normal_end_has_no_last_word(tmp_path):
+    """The backstop stays silent when Python ends the process: a return code, an uncaught error."""
+    script = tmp_path / "normal_end.py"
+    script.write_text(f"""import sys
+sys.path.insert(0, {str(DEMOS)!r})
+import _common
+
+def main(argv):
+    if argv and argv[0] == "raise":
+        raise KeyboardInterrupt
+    return int(argv[0]) if argv else 0
+
+sys.exit(_common.exit_code(main, sys.argv[1:]))
+""")
+    for args, code in (([], 0), (["1"], 1), (["raise"], None)):
+        proc = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=600,
+                              env=job_environment())
+        assert code is None or proc.returncode == code, report(proc)
+        assert "ending inside a compiled library" not in proc.stderr, report(proc)

@@ -83,10 +83,12 @@ def test_three_d_example_of_the_guide_solves():
 def test_every_demo_with_a_figure_shows_it_in_the_gallery(tmp_path):
     """A demo's pictures are found whether named <demo>.png or <demo>-*.png (the snap-through page
     once showed "(no pictures yet)" beside docs/figures/snap-through.png)."""
-    for file in ("snap-through.png", "snap-through-curves.png", "snap-through-extra.txt", "snapper-x.png"):
+    for file in ("new-demo.png", "new-demo-curves.png", "new-demo-extra.txt", "new-demos-x.png"):
         (tmp_path / file).write_bytes(b"")
-    assert [file for file, _ in sitegen.figures_of("snap_through", tmp_path)] == ["snap-through.png",
-                                                                                  "snap-through-curves.png"]
+    assert [file for file, _ in sitegen.figures_of("new_demo", tmp_path)] == ["new-demo.png", "new-demo-curves.png"]
     demos, _ = sitegen.demo_names()
-    with_figures = {name for name in demos if sitegen.figures_of(name)}
-    assert "snap_through" in with_figures
+    for name in demos:
+        stem = name.replace("_", "-")
+        if list(sitegen.FIGURES.glob(stem + ".png")) or list(sitegen.FIGURES.glob(stem + "-*.png")):
+            assert sitegen.figures_of(name), f"demos/{name}.py has pictures in docs/figures but none on its page"
+    assert "snap_through" in {name for name in demos if sitegen.figures_of(name)}

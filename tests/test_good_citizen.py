@@ -26,6 +26,7 @@ import types
 import dolfinx_sfvem as sf  # first: with the dolfinx-solver wheel it loads MPI before the bindings
 import dolfinx_sfvem.problem
 from dolfinx_sfvem import exact, interrupt, meshes
+from dolfinx_sfvem.mpi_launcher import job_environment
 
 import dolfinx
 import dolfinx.fem
@@ -33,6 +34,7 @@ import numpy as np
 import pytest
 import ufl
 from petsc4py import PETSc
+from process_report import report
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -138,11 +140,11 @@ def test_a_cold_compiler_cache_prints_nothing(tmp_path):
     and nothing of the compilers: no setuptools/cffi records reach the console."""
     import os
     import subprocess
-    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache"), "OMP_NUM_THREADS": "1"}
+    env = job_environment(XDG_CACHE_HOME=str(tmp_path / "cache"), OMP_NUM_THREADS="1")
     cmd = [sys.executable, str(ROOT / "demos" / "cbox.py"), "--method", "fem", "--h", "0.1", "--steps", "1",
            "--uy", "-0.05", "--out", str(tmp_path / "out")]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, report(proc)
     assert any((tmp_path / "cache").rglob("*.c")), "the run compiled nothing: the cache was not cold"
     output = proc.stdout + proc.stderr
     assert "load reached 1 of 1" in output

@@ -40,9 +40,26 @@ def test_pictures(box_grid, tmp_path, cell):
         image = plt.imread(path)[..., :3]
         assert image.shape[:2] == (WINDOW_SIZE[1], WINDOW_SIZE[0])
         assert image.std() > 0.05, f"{path.name} is blank"
+        assert (image[:, -3:] > 0.95).all(), f"{path.name}: something drawn across the window's right edge"
     # coloured pixels (saturation) in the pressure picture: the colour map, not only grey
     image = plt.imread(paths[2])[..., :3]
     saturation = image.max(axis=2) - image.min(axis=2)
     assert (saturation > 0.3).mean() > 0.01
     # without a pressure: the deformed and clipped views only
     assert len(write_pictures_3d(tmp_path, "plain", mesh, u, (1, 3))) == 2
+
+
+@pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
+def test_pressure_view_on_the_surface_of_the_peak(box_grid, cell):
+    """Both faces against the medium carry a pressure (as two bodies pressed together do), the upper
+    one's larger: the pressure picture looks at the upper block's face, along its outward normal -z,
+    at its centre (the two faces' normals together would cancel)."""
+    from dolfinx_sfvem.pictures3d import _contact_view
+    mesh, u = two_blocks(box_grid, cell)
+    n = mesh.points.shape[0]
+    surface = SolidSurface(mesh, (1, 3), lambda a, b: n + edge_key(a, b, n))
+    z = surface.X[:, 2]
+    pressure = np.where(np.isclose(z, 0.4), 1.0, 0.0) + np.where(np.isclose(z, 0.6), 1.1, 0.0)
+    centre, normal = _contact_view(mesh, mesh.points + u, surface, pressure)
+    assert normal == pytest.approx([0.0, 0.0, -1.0], abs=1e-12)   # the sides' normals left out at the rim
+    assert centre[:2] == pytest.approx([0.5, 0.5], abs=1e-12) and centre[2] < 0.6 - 0.15 + 1e-12

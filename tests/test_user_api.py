@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
+from dolfinx_sfvem.mpi_launcher import job_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOLID, MEDIUM = 1, 2
@@ -152,7 +153,8 @@ def test_out_that_is_a_file_is_bad_input(tmp_path):
     target = tmp_path / "taken"
     target.write_text("")
     proc = subprocess.run([sys.executable, str(ROOT / "demos" / "cbox.py"), "--h", "0.1", "--steps", "1", "--quiet",
-                           "--out", str(target)], capture_output=True, text=True, cwd=ROOT, timeout=300)
+                           "--out", str(target)], capture_output=True, text=True, cwd=ROOT, timeout=300,
+                          env=job_environment())
     assert proc.returncode == 2 and "is not a directory" in proc.stderr and "Traceback" not in proc.stderr
 
 

@@ -69,13 +69,16 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
                                           "at load 0.807, the last converged step (the medium inverts beyond)"),
         ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium "
                                       "squeezed between the beams"),
+        ("cbox3d-point-hex-pressure.png", "The contact pressure at load 0.807 on the upper beam's lower face (the "
+                                          "surface where it is largest), seen from below: highest at the tip"),
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
     "hertz3d": [
         ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
                                               "against indentation and pressure against radius, with Hertz's; the "
                                               "contact radius is below one element"),
-        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
+        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block's top at load 0.7125, seen from "
+                                                "above (the quarter model's corner is the sphere's axis)"),
         ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
     ],
     "pneunet3d": [
@@ -84,6 +87,21 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("pneunet3d-clip.png", "At 10 kPa, cut normal to y through the contact: the sidewalls meet across the gap"),
         ("pneunet3d-deformed.png", "The deformed half actuator at 10 kPa, medium hidden"),
         ("pneunet3d-pressure.png", "The medium's contact pressure on the free chamber's sidewall at 10 kPa"),
+    ],
+    "snap_through": [
+        ("snap-through.png", "Shallow arch, h = 0.01: apex force against apex displacement, SFVEM and FEM under "
+                             "arc-length and displacement control, with the beam model's limit loads; shaded: the "
+                             "unstable branch (negative pivots)"),
+    ],
+    "thick_cylinder": [
+        ("thick-cylinder-convergence.png", "Relative L2 and H1 errors and the error of u_r at the inner arc against "
+                                           "h, small p against Lamé and follower, dead and cavity pressure against "
+                                           "the BVP, SFVEM and FEM: O(h^2)"),
+    ],
+    "pneumatic_actuator": [
+        ("pneumatic-actuator-deformed.png", "The actuators at 5 kPa, h = 1: SFVEM (left) and FEM (right)"),
+        ("pneumatic-actuator-curves.png", "Tip angle, smallest gap and mean chamber area against the chamber "
+                                          "pressure; dotted: each method's first contact"),
     ],
     "thick_sphere": [
         ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "

@@ -16,6 +16,12 @@ gmsh3d
 hexahedra
     3D without gmsh: tensor-product box grids, quadrilaterals extruded into hexahedra, hexahedra
     split into tetrahedra.
+prisms
+    Polyhedra: any polygon mesh extruded into prisms (a ``PolyhedronMesh``).
+octree
+    Polyhedra: octrees of a box refined where asked, 2:1 balanced, coarse cubes with hanging vertices.
+voronoi
+    Polyhedra: Voronoi cells clipped to a box.
 npz
     The ``.npz`` format of polygon meshes.
 diagnostics

@@ -82,6 +82,19 @@ def _cell_mesh(points: np.ndarray, hexahedra: np.ndarray, tags: np.ndarray, regi
     return CellMesh(points, hexahedra, tags, cell, dict(region_names))
 
 
+def extruded_points(mesh2d: PolygonMesh, depth: float, layers: int, caller: str) -> np.ndarray:
+    """The points of ``mesh2d`` at z = level * depth / layers, level = 0 .. layers: point
+    ``p + n_points * level`` above point ``p``, (n_points * (layers + 1), 3). ValueError (naming
+    ``caller``) for a depth that is not a number > 0 or a layer count that is not an integer >= 1."""
+    if not (isinstance(depth, (int, float, np.floating)) and np.isfinite(depth) and depth > 0):
+        raise ValueError(f"{caller}: depth must be a number > 0, got {depth!r}")
+    if not (isinstance(layers, (int, np.integer)) and layers >= 1):
+        raise ValueError(f"{caller}: layers must be an integer >= 1, got {layers!r}")
+    n = mesh2d.points.shape[0]
+    return np.concatenate([np.column_stack([mesh2d.points, np.full(n, z)])
+                           for z in np.linspace(0.0, float(depth), layers + 1)])
+
+
 def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
     """Hexahedra from a mesh of parallelograms: every quadrilateral swept from z = 0 to z = ``depth``
     in ``layers`` equal layers.
@@ -107,10 +120,7 @@ def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
         Naming the first polygon that is not a quadrilateral or not a parallelogram, the hanging
         nodes, or a bad depth or layer count.
     """
-    if not (isinstance(depth, (int, float, np.floating)) and np.isfinite(depth) and depth > 0):
-        raise ValueError(f"extrude: depth must be a number > 0, got {depth!r}")
-    if not (isinstance(layers, (int, np.integer)) and layers >= 1):
-        raise ValueError(f"extrude: layers must be an integer >= 1, got {layers!r}")
+    points = extruded_points(mesh2d, depth, layers, "extrude")
     sizes = np.diff(mesh2d.offsets)
     if np.any(sizes != 4):
         first = int(np.flatnonzero(sizes != 4)[0])
@@ -127,8 +137,6 @@ def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
         raise ValueError(f"extrude: polygon {first} is not a parallelogram (its diagonals' midpoints are "
                          f"{skew[first]:.3g} apart); Q2 hexahedra must be affine")
     n = mesh2d.points.shape[0]
-    levels = np.linspace(0.0, float(depth), layers + 1)
-    points = np.concatenate([np.column_stack([mesh2d.points, np.full(n, z)]) for z in levels])
     face = quads[:, [0, 1, 3, 2]]                               # DOLFINx's quadrilateral order
     hexahedra = np.concatenate([np.hstack([face + k * n, face + (k + 1) * n]) for k in range(layers)])
     tags = np.tile(np.asarray(mesh2d.tags, dtype=np.int64), layers)
