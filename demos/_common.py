@@ -246,8 +246,9 @@ def third_medium(args: argparse.Namespace, mu: float) -> sf.ThirdMedium:
 
 # --------------------------------------------------------------------------- markers and observers
 def at_point(xy: typing.Sequence[float], tol: float = 1e-10) -> typing.Callable[[np.ndarray], np.ndarray]:
-    """Marker of the nodes at the point ``xy``."""
-    return lambda x: np.hypot(x[0] - xy[0], x[1] - xy[1]) <= tol
+    """Marker of the nodes at the point ``xy`` (2 or 3 coordinates; a 2D point ignores z)."""
+    point = np.asarray(xy, dtype=np.float64)[:, None]
+    return lambda x: np.linalg.norm(x[:point.shape[0]] - point, axis=0) <= tol
 
 
 def on_segment(a: typing.Sequence[float], b: typing.Sequence[float],

@@ -140,25 +140,33 @@ class Curve(typing.NamedTuple):
         return float(np.interp(level, self.gap[k - 1:k + 1][::-1], self.pressure[k - 1:k + 1][::-1]))
 
 
-def read_curve(out: pathlib.Path, label: str) -> Curve:
-    """The converged steps of the run in ``out`` with the unloaded state first."""
+#: what the chambers' changes are, by the dimension: (name, unit)
+CHANGES = {"area": "mm²", "volume": "mm³"}
+
+
+def read_curve(out: pathlib.Path, label: str, geometry: sf.meshes.PneuNet = GEOMETRY, vertical: str = "y") -> Curve:
+    """The converged steps of the run in ``out`` with the unloaded state first; θ from the tip
+    corners' displacements along x and ``vertical`` (the height axis: y in 2D, z in 3D)."""
     summary = read_summary(out)
     rows = common.read_load_path(out / "load_path.csv")
     chambers = sorted((k for k in rows[0] if k.startswith("chamber_") and k.endswith("_displacement")),
                       key=lambda k: int(k.split("_")[1])) if rows else []
     pressure = [r["chamber_1_magnitude"] for r in rows]
-    corners = [np.array([[r[f"{c}_ux"], r[f"{c}_uy"]] for r in rows]).reshape(-1, 2) for c in ("tip_bottom", "tip_top")]
-    angle = bending_angle(*corners, GEOMETRY.top)
+    corners = [np.array([[r[f"{c}_ux"], r[f"{c}_u{vertical}"]] for r in rows]).reshape(-1, 2)
+               for c in ("tip_bottom", "tip_top")]
+    angle = bending_angle(*corners, geometry.top)
     gap = [r["gap"] for r in rows]
     area = np.array([[r[k] for k in chambers] for r in rows]).reshape(len(rows), len(chambers))
     return Curve(label, np.concatenate([[0.0], pressure]), np.concatenate([[0.0], angle]),
-                 np.concatenate([[GEOMETRY.spacing], gap]), np.vstack([np.zeros((1, len(chambers))), area]), summary)
+                 np.concatenate([[geometry.spacing], gap]), np.vstack([np.zeros((1, len(chambers))), area]), summary)
 
 
-def report(curves: list[Curve], args: argparse.Namespace) -> None:
-    """actuator.md and actuator.png in ``--out``."""
+def report(curves: list[Curve], args: argparse.Namespace, title: str | None = None, change: str = "area") -> None:
+    """actuator.md and actuator.png in ``--out``; ``title`` of the plot (default: the 2D demo's),
+    ``change`` a key of :data:`CHANGES` (what ``Curve.area`` holds)."""
+    unit = CHANGES[change]
     header = ["run", "unknowns", "steps", "Newton", "time [s]", "load reached", "p at first contact [kPa]",
-              "θ at full p [°]", "gap at full p [mm]", "smallest gap [mm]", "chamber area change at full p [mm²]"]
+              "θ at full p [°]", "gap at full p [mm]", "smallest gap [mm]", f"chamber {change} change at full p [{unit}]"]
     rows = [[c.label, str(c.summary.dofs), str(len(c.summary.converged_steps)), str(c.summary.newton_iterations),
              f"{c.summary.wall_time_s:.1f}", f"{c.pressure[-1] / args.p:.4g}", f"{1e3 * c.first_contact():.3g}",
              f"{c.angle[-1]:.2f}", f"{c.gap[-1]:.4f}", f"{c.gap.min():.4f}",
@@ -169,18 +177,20 @@ def report(curves: list[Curve], args: argparse.Namespace) -> None:
              f"(initially {GEOMETRY.spacing:g} mm); first contact: the gap below {CONTACT_FRACTION:g} of it.", ""]
     lines += markdown.table(header, rows)
     (args.out / "actuator.md").write_text("\n".join(lines) + "\n")
-    plot(curves, args.out / "actuator.png", f"PneuNet, {args.chambers} chambers, h = {args.h:g} mm")
+    plot(curves, args.out / "actuator.png", title or f"PneuNet, {args.chambers} chambers, h = {args.h:g} mm",
+         change)
 
 
-def plot(curves: list[Curve], path_png: pathlib.Path, title: str) -> None:
-    """θ, smallest gap and the mean chamber area change against the pressure (kPa), one line per run."""
+def plot(curves: list[Curve], path_png: pathlib.Path, title: str, change: str = "area") -> None:
+    """θ, smallest gap and the mean chamber ``change`` (a key of :data:`CHANGES`) against the
+    pressure (kPa), one line per run."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(10.5, 3.2))
     for curve, (style, colour) in zip(curves, (("-o", "C0"), ("--^", "C1"))):
-        label = "SFVEM" if curve.label == "vem" else "FEM (P2)"
+        label = {"vem": "SFVEM", "fem": "FEM (P2)"}.get(curve.label, curve.label)
         kpa = 1e3 * curve.pressure
         for ax, values in zip(axes, (curve.angle, curve.gap, curve.area.mean(axis=1))):
             ax.plot(kpa, values, style, color=colour, ms=3, mfc="none", lw=1, label=label)
@@ -190,7 +200,7 @@ def plot(curves: list[Curve], path_png: pathlib.Path, title: str) -> None:
                 ax.axvline(contact, color=colour, lw=0.7, ls=":")
     axes[1].axhline(CONTACT_FRACTION * GEOMETRY.spacing, color="0.5", lw=0.7, ls="--", label="contact level")
     axes[1].set_ylim(bottom=0.0)
-    for ax, name in zip(axes, ("tip bending angle θ [°]", "smallest gap [mm]", "mean chamber area change [mm²]")):
+    for ax, name in zip(axes, ("tip bending angle θ [°]", "smallest gap [mm]", f"mean chamber {change} change [{CHANGES[change]}]")):
         ax.set(xlabel="chamber pressure [kPa]", ylabel=name)
         ax.grid(True, alpha=0.3)
     axes[1].legend(fontsize=7)

@@ -132,7 +132,7 @@ def progress_line(rec: StepRecord) -> str:
     elif rec.negative_pivots:
         kinked += f"  negative pivots {rec.negative_pivots}"
     loaded = [(n, v) for n, v in rec.reaction.items() if n != "fixed"]
-    reaction = f"  R[{loaded[0][0]}] ({loaded[0][1][0]:+.4e}, {loaded[0][1][1]:+.4e})" if loaded else ""
+    reaction = f"  R[{loaded[0][0]}] ({', '.join(f'{r:+.4e}' for r in loaded[0][1])})" if loaded else ""
     load = next(iter(rec.loads.items()), None)
     load = f"  {load[0]} {load[1]['magnitude']:+.4e} at {load[1]['displacement']:+.4e}" if load else ""
     return (f"step {rec.step:4d}  load {rec.load:8.5f}  newton {rec.newton_iterations:2d}  |R| {res:.2e}  "

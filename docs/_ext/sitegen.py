@@ -81,6 +81,13 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
                                                 "above (the quarter model's corner is the sphere's axis)"),
         ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
     ],
+    "pneunet3d": [
+        ("pneunet3d-curves.png", "2 chambers, Q2 hexahedra, h = 2: tip angle, smallest gap and mean chamber volume "
+                                 "change against the chamber pressure (dotted: first contact)"),
+        ("pneunet3d-clip.png", "At 10 kPa, cut normal to y through the contact: the sidewalls meet across the gap"),
+        ("pneunet3d-deformed.png", "The deformed half actuator at 10 kPa, medium hidden"),
+        ("pneunet3d-pressure.png", "The medium's contact pressure on the free chamber's sidewall at 10 kPa"),
+    ],
     "snap_through": [
         ("snap-through.png", "Shallow arch, h = 0.01: apex force against apex displacement, SFVEM and FEM under "
                              "arc-length and displacement control, with the beam model's limit loads; shaded: the "
