@@ -170,8 +170,8 @@ def hertz_rows(summary: RunSummary, block: int, gap: float, stiffness: float) ->
 def write_table(rows: list[dict[str, float]], fit: tuple[float, float], path, title: str) -> None:
     """The rows of :func:`hertz_rows` as a Markdown table, and the last state's :func:`ellipse_fit`
     against Hertz."""
-    lines = [f"# {title}", "", "| load | F | delta | delta Hertz | Hertz - bottom | a_zone | a_p | a Hertz | a_zone/a_H | a_p/a_H "
-             "| p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 15]
+    lines = [f"# {title}", "", "| load | F | delta | delta Hertz | Hertz - bottom | a_zone | a_p | a Hertz | a_zone/a_H "
+             "| a_p/a_H | p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 15]
     for r in rows:
         lines.append(f"| {r['load']:.4g} | {r['F']:.4g} | {r['delta']:.4f} | {r['delta_H']:.4f} | {r['delta_Hb']:.4f} "
                      f"| {r['a_zone']:.4f} "
@@ -254,7 +254,8 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
             r = rows[-1]
             print(f"final: load {r['load']:.4g}, F {r['F']:.5g}, delta {r['delta']:.4f} (Hertz {r['delta_H']:.4f}), "
                   f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f}, a_fit {fit[0]:.4f} (Hertz {r['a_H']:.4f}), "
-                  f"p_max {r['p_max']:.4g}, p0_fit {fit[1]:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}", flush=True)
+                  f"p_max {r['p_max']:.4g}, p0_fit {fit[1]:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}",
+                  flush=True)
         else:
             print("final: no contact reached", flush=True)
     return code
