@@ -170,8 +170,8 @@ def hertz_rows(summary: RunSummary, block: int, gap: float, stiffness: float) ->
 def write_table(rows: list[dict[str, float]], fit: tuple[float, float], path, title: str) -> None:
     """The rows of :func:`hertz_rows` as a Markdown table, and the last state's :func:`ellipse_fit`
     against Hertz."""
-    lines = [f"# {title}", "", "| load | F | delta | delta Hertz | Hertz - bottom | a_zone | a_p | a Hertz | a_zone/a_H "
-             "| a_p/a_H | p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 15]
+    lines = [f"# {title}", "", "| load | F | delta | delta Hertz | Hertz - bottom | a_zone | a_p | a Hertz "
+             "| a_zone/a_H | a_p/a_H | p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 15]
     for r in rows:
         lines.append(f"| {r['load']:.4g} | {r['F']:.4g} | {r['delta']:.4f} | {r['delta_H']:.4f} | {r['delta_Hb']:.4f} "
                      f"| {r['a_zone']:.4f} "
