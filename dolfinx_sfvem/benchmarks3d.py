@@ -241,6 +241,8 @@ def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, f
     _check_lengths(h_contact=h_contact, h_far=h_far, gap=gap, fine_radius=fine_radius, core_radius=core_radius)
     if h_core is not None:
         _check_lengths(h_core=h_core)
+        if h_core >= h_contact:
+            raise ValueError(f"h_core ({h_core}) must be smaller than h_contact ({h_contact})")
     L, H, R = HERTZ3D_L, HERTZ3D_H, HERTZ3D_R
     top = H + gap + R
 

@@ -221,6 +221,8 @@ def test_hertz3d_core_refines_only_about_the_contact_point():
     _, far_cored = edge_lengths_about(cored, centre, 1.2)
     assert np.median(far_cored) == pytest.approx(np.median(far_plain), rel=0.15)
     assert region_volumes(cored)[SOLID] == pytest.approx(4.0, rel=1e-12)
+    with pytest.raises(ValueError, match="h_core"):
+        meshes.hertz3d(h_contact=0.2, h_core=0.2)
 
 
 # --------------------------------------------------------------------------- thick sphere

@@ -72,11 +72,11 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
     "hertz3d": [
-        ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
-                                              "against indentation and pressure against radius, with Hertz's; the "
-                                              "contact radius is below one element"),
-        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block at load 0.7125"),
-        ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
+        ("hertz3d-core0.05-curves.png", "h_core = 0.05 (25,188 unknowns), gamma = 1e-5, the last converged step: "
+                                        "force against indentation with Hertz's (half-space, and less the settlement "
+                                        "at the clamped bottom), block-top pressure against radius with Hertz's"),
+        ("hertz3d-core0.05-pressure.png", "The contact pressure on the solids' surfaces at the last converged step"),
+        ("hertz3d-core0.05-clip.png", "A cut through the contact at the last converged step"),
     ],
     "thick_sphere": [
         ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "
