@@ -72,11 +72,12 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
     "hertz3d": [
-        ("hertz3d-core0.05-curves.png", "h_core = 0.05 (25,188 unknowns), gamma = 1e-5, the last converged step: "
+        ("hertz3d-core0.05-curves.png", "h_core = 0.05 (25,188 unknowns), gamma = 1e-5, load 0.85: "
                                         "force against indentation with Hertz's (half-space, and less the settlement "
                                         "at the clamped bottom), block-top pressure against radius with Hertz's"),
-        ("hertz3d-core0.05-pressure.png", "The contact pressure on the solids' surfaces at the last converged step"),
-        ("hertz3d-core0.05-clip.png", "A cut through the contact at the last converged step"),
+        ("hertz3d-core0.05-pressure.png", "The contact pressure in the contact zone at load 0.85"),
+        ("hertz3d-core0.05-deformed.png", "The solids at load 0.85 (medium hidden): the mesh's 0.05 core under "
+                                          "the sphere"),
     ],
     "thick_sphere": [
         ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "
