@@ -43,9 +43,10 @@ What it prints and writes
 Per step the load factor, Newton iterations, reactions; at the end the last contact row. In
 ``--out``, besides summary.json, load_path.csv, displacement.xdmf and the 3D pictures of the last
 state (``final-deformed.png``, ``final-clip.png``, ``final-pressure.png``): hertz3d.md (per
-converged step in contact: F, delta, a_zone, a_p, Hertz's a, p_max, Hertz's p0), pressure.csv
+converged step in contact: F, delta, Hertz's delta with and without the bottom's settlement,
+a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit and p0_fit), pressure.csv
 (radius and pressure of the block's top nodes at the last state), hertz3d.png (force against
-indentation with Hertz's curve; pressure against radius with Hertz's profile).
+indentation with Hertz's curves; pressure against radius with Hertz's profile).
 
 Commands
 --------
@@ -60,12 +61,12 @@ Measured
 number below comes from). The finest documented mesh is the default: h = 0.1 with a 0.05 core
 (25,188 unknowns). gamma = 1e-5: the gap closes at load 0.70 in 1-3 Newton iterations per step;
 contact steps take 6-27 (one cut-back at 0.75); the run was stopped after load 0.85 to leave
-time for the docs (47 min of wall time to there; load 1 not reached). At load 0.85: F = 0.00481,
+time for the docs (51 min of wall time; load 1 not reached). At load 0.85: F = 0.00481,
 Hertz's a = 0.148 (three core elements), p_max / p0 = 0.988 (-1.2 %), a_p / a_H = 1.006, a_zone /
 a_H = 1.167 (node-based, +0.5 element); Hertz's ellipse fitted to the pressure above 30 % of
 the peak: a_fit / a_H = 0.934, p0_fit / p0 = 0.975 (the profile lies a little inside the ellipse at
-mid-radius and has a tail of about one element beyond a); indentation 0.0191 against Hertz's 0.0218 and 0.0194 after
-the bottom's settlement (-1.5 %). Without the core (h = 0.1, 11,607 unknowns) at about the same
+mid-radius and has a tail of about one element beyond a); indentation 0.0191 against Hertz's
+0.0218 and 0.0194 after the bottom's settlement (-1.5 %). Without the core (h = 0.1, 11,607 unknowns) at about the same
 force (F = 0.00457): p_max / p0 = 0.838, a_p / a_H = 1.092, a_zone / a_H = 1.19; halving the
 size under the contact takes the peak's error from -16 % to -1 %. gamma = 1e-6 (the paper's value)
 was not carried past first contact here: on the cored mesh the first contact step ran 20 minutes
