@@ -211,7 +211,8 @@ SPHERE = 3
 
 
 def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, fine_radius: float = 0.8,
-            keep_gmsh: str | os.PathLike | None = None) -> Benchmark3D:
+            h_core: float | None = None, core_radius: float = 0.3, keep_gmsh: str | os.PathLike | None = None
+            ) -> Benchmark3D:
     """Quarter model of a stiff sphere pressed into a block across a gap filled with third medium
     (Xu, Xue & Wriggers, JMPS 2026, doi 10.1016/j.jmps.2026.106617; as dolfiny's
     ``demo/tmc/3D/Hertz_Wriggers_3D.py``).
@@ -224,7 +225,10 @@ def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, f
 
     Mesh: gmsh tetrahedra of size ``h_contact`` within ``fine_radius`` of the contact point
     (0, 0, 1 + gap / 2), growing linearly to ``h_far`` over a shell of width 0.5 beyond
-    (:func:`~dolfinx_sfvem.meshing.gmsh3d.size_field`). The sphere's surface is followed by flat
+    (:func:`~dolfinx_sfvem.meshing.gmsh3d.size_field`); with ``h_core`` also size ``h_core`` within
+    ``core_radius`` of that point (the squeezed medium layer, the block's top and the sphere's tip
+    under the contact zone), growing to ``h_contact`` over a shell of width ``core_radius``. The
+    sphere's surface is followed by flat
     triangles whose vertices lie on it.
 
     Named points: ``sphere_tip`` (0, 0, 1 + gap), ``block_top`` (0, 0, 1). Named surfaces:
@@ -234,7 +238,11 @@ def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, f
 
     ``keep_gmsh``: also write the mesh to ``<keep_gmsh>.msh``.
     """
-    _check_lengths(h_contact=h_contact, h_far=h_far, gap=gap, fine_radius=fine_radius)
+    _check_lengths(h_contact=h_contact, h_far=h_far, gap=gap, fine_radius=fine_radius, core_radius=core_radius)
+    if h_core is not None:
+        _check_lengths(h_core=h_core)
+        if h_core >= h_contact:
+            raise ValueError(f"h_core ({h_core}) must be smaller than h_contact ({h_contact})")
     L, H, R = HERTZ3D_L, HERTZ3D_H, HERTZ3D_R
     top = H + gap + R
 
@@ -246,7 +254,8 @@ def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, f
         _, children = occ.fragment([(3, block), (3, box)], [(3, sphere)])
         occ.synchronize()
         sphere_parts = [v for _, v in children[2]]
-        size_field(gmsh, h_contact, h_far, (0.0, 0.0, H + gap / 2), fine_radius, 0.5)
+        core = None if h_core is None else (h_core, core_radius, core_radius)
+        size_field(gmsh, h_contact, h_far, (0.0, 0.0, H + gap / 2), fine_radius, 0.5, core)
         return {SOLID: [v for _, v in children[0]], SPHERE: sphere_parts,
                 MEDIUM: [v for _, v in children[1] if v not in sphere_parts]}
 

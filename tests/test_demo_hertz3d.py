@@ -6,14 +6,16 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 import hertz3d
 from dolfinx_sfvem.run_summary import read_summary
 
-#: coarse mesh (5.4 k unknowns, h = 0.15 within 0.4 of the contact point); the sphere closes the gap
-#: 0.1 and indents the block by 0.005 in 5 steps
-COARSE = ["--h", "0.15", "--h-far", "0.5", "--fine-radius", "0.4", "--steps", "5", "--indent", "0.005", "--quiet",
+#: coarse mesh (h = 0.15 within 0.4 of the contact point, 0.12 within 0.15 of it); the sphere closes
+#: the gap 0.1 and indents the block by 0.005 in 5 steps
+COARSE = ["--h", "0.15", "--h-core", "0.12", "--core-radius", "0.15", "--h-far", "0.5", "--fine-radius", "0.4",
+          "--steps", "5", "--indent", "0.005", "--quiet",
           "--regularization", "huhu"]    # the default (rotation) compiles for minutes on a cold cache
 
 
@@ -23,6 +25,16 @@ def test_hertz_formulas():
     h = hertz3d.hertz(0.02, 100.0)
     E_star = 1 / ((1 - hertz3d.NU ** 2) / hertz3d.E * (1 + 1 / 100))
     assert 0.02 == pytest.approx(4 / 3 * E_star * math.sqrt(h.delta) ** 3, rel=1e-12)
+
+
+def test_ellipse_fit_recovers_hertz_profile():
+    """The fit returns a and p0 of an exact Hertz profile sampled at scattered radii, zeros outside
+    the zone included (they fall below the fit's threshold)."""
+    r = np.sort(np.random.default_rng(1).uniform(0.0, 0.3, 40))
+    a, p0 = 0.2, 0.14
+    p = p0 * np.sqrt(np.clip(1 - (r / a) ** 2, 0.0, None))
+    assert hertz3d.ellipse_fit(np.stack([r, p], axis=1)) == pytest.approx((a, p0), rel=1e-10)
+    assert all(math.isnan(v) for v in hertz3d.ellipse_fit(np.array([[0.0, 1.0], [0.1, 0.5]])))
 
 
 @pytest.fixture(scope="module")

@@ -199,6 +199,32 @@ def test_hertz3d_regions_markers_and_size_field():
     assert length[near].mean() < 0.6 * length[~near].mean()
 
 
+def edge_lengths_about(mesh, centre, radius):
+    """Lengths of the cells' first edges whose first vertex lies within / beyond ``radius`` of ``centre``."""
+    x = mesh.points
+    edges = mesh.cells[:, [0, 1]]
+    length = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    near = np.linalg.norm(x[edges[:, 0]] - centre, axis=1) < radius
+    return length[near], length[~near]
+
+
+def test_hertz3d_core_refines_only_about_the_contact_point():
+    """h_core: edges within core_radius of the contact point about h_core long (tetrahedra of a
+    size field have edges about its size), the mesh beyond the growth shell as without it."""
+    plain = meshes.hertz3d(h_contact=0.2, h_far=0.5, fine_radius=0.4).mesh
+    cored = meshes.hertz3d(h_contact=0.2, h_far=0.5, fine_radius=0.4, h_core=0.05, core_radius=0.2).mesh
+    centre = [0.0, 0.0, 1.05]
+    near_plain, _ = edge_lengths_about(plain, centre, 0.15)
+    near_cored, _ = edge_lengths_about(cored, centre, 0.15)
+    assert 0.6 * 0.05 < np.median(near_cored) < 1.5 * 0.05 < 0.5 * np.median(near_plain)
+    _, far_plain = edge_lengths_about(plain, centre, 1.2)
+    _, far_cored = edge_lengths_about(cored, centre, 1.2)
+    assert np.median(far_cored) == pytest.approx(np.median(far_plain), rel=0.15)
+    assert region_volumes(cored)[SOLID] == pytest.approx(4.0, rel=1e-12)
+    with pytest.raises(ValueError, match="h_core"):
+        meshes.hertz3d(h_contact=0.2, h_core=0.2)
+
+
 # --------------------------------------------------------------------------- thick sphere
 @pytest.mark.parametrize("filled", [False, True])
 def test_thick_sphere_volumes_surfaces_and_boundary(filled):

@@ -74,12 +74,12 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
     ],
     "hertz3d": [
-        ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
-                                              "against indentation and pressure against radius, with Hertz's; the "
-                                              "contact radius is below one element"),
-        ("hertz3d-h0.1-gamma1e-6-pressure.png", "The contact pressure on the block's top at load 0.7125, seen from "
-                                                "above (the quarter model's corner is the sphere's axis)"),
-        ("hertz3d-h0.1-gamma1e-6-clip.png", "A cut through the contact at load 0.7125"),
+        ("hertz3d-core0.05-curves.png", "h_core = 0.05 (25,188 unknowns), gamma = 1e-5, load 0.9: "
+                                        "force against indentation with Hertz's (half-space, and less the settlement "
+                                        "at the clamped bottom), block-top pressure against radius with Hertz's"),
+        ("hertz3d-core0.05-pressure.png", "The contact pressure in the contact zone at load 0.9"),
+        ("hertz3d-core0.05-deformed.png", "The solids at load 0.9 (medium hidden): the mesh's 0.05 core under "
+                                          "the sphere"),
     ],
     "pneunet3d": [
         ("pneunet3d-curves.png", "2 chambers, Q2 hexahedra, h = 2: tip angle, smallest gap and mean chamber volume "

@@ -130,15 +130,25 @@ def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
     return CellMesh(points, cells, tags, cell_type, dict(names))
 
 
-def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radius: float, width: float) -> None:
+def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radius: float, width: float,
+               core: tuple[float, float, float] | None = None) -> None:
     """Background mesh size ``h_near`` within ``radius`` of ``centre``, growing linearly to ``h_far``
     over a shell of ``width`` beyond (a gmsh MathEval field; sizes from points, curvature and the
-    boundary switched off)."""
+    boundary switched off).
+
+    ``core = (h_core, r_core, w_core)``: besides, size ``h_core`` within ``r_core`` of ``centre``,
+    growing linearly beyond, by ``h_near - h_core`` over ``w_core`` (the smaller size holds).
+    """
     x0, y0, z0 = centre
     distance = f"Sqrt((x - {x0!r})^2 + (y - {y0!r})^2 + (z - {z0!r})^2)"
+
+    size = f"{h_near!r} + {h_far - h_near!r} * Min(1, Max(0, ({distance} - {radius!r}) / {width!r}))"
+    if core is not None:
+        h_core, r_core, w_core = core
+        inner = f"{h_core!r} + {h_near - h_core!r} * Max(0, ({distance} - {r_core!r}) / {w_core!r})"
+        size = f"Min({size}, {inner})"
     field = gmsh.model.mesh.field.add("MathEval")
-    gmsh.model.mesh.field.setString(
-        field, "F", f"{h_near!r} + {h_far - h_near!r} * Min(1, Max(0, ({distance} - {radius!r}) / {width!r}))")
+    gmsh.model.mesh.field.setString(field, "F", size)
     gmsh.model.mesh.field.setAsBackgroundMesh(field)
     for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
         gmsh.option.setNumber(option, 0)
