@@ -77,7 +77,10 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz3d-core0.05-curves.png", "h_core = 0.05 (25,188 unknowns), gamma = 1e-5, load 0.9: "
                                         "force against indentation with Hertz's (half-space, and less the settlement "
                                         "at the clamped bottom), block-top pressure against radius with Hertz's"),
-        ("hertz3d-core0.05-pressure.png", "The contact pressure in the contact zone at load 0.9"),
+        ("hertz3d-core0.05-pressure.png", "The contact pressure at load 0.9 on the sphere's tip, seen from below "
+                                          "through the faint block (quarter model: the axis is the zone's corner)"),
+        ("hertz3d-core0.05-clip.png", "A cut through the contact at load 0.9 (x = 0 plane): the 0.05 core under "
+                                      "the sphere, the squeezed medium between the solids"),
         ("hertz3d-core0.05-deformed.png", "The solids at load 0.9 (medium hidden): the mesh's 0.05 core under "
                                           "the sphere"),
     ],
