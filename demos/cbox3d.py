@@ -12,18 +12,22 @@ The box [0, 2] x [0, 0.7] x [0, 0.7], wall thickness 0.1: the C lies in the x-z 
 extruded along y (wall x <= 0.1, beams z <= 0.1 and z >= 0.6); the medium fills x >= 0.1,
 0.1 <= z <= 0.6, open at x = 2, y = 0 and y = 0.7. A tensor-product grid of ``--n nx ny nz``
 cells (default 20 4 7; nx must put a grid line on x = 0.1 and nz on z = 0.1 and 0.6), or of
-size about ``--h``; Q2 hexahedra (``--cell hexahedron``, default) or P2 tetrahedra, each hexahedron
-split into 6 (``--cell tetrahedron``: the same nodes, so the same unknowns).
+size about ``--h``; ``--tip-refinement K`` splits the cells within 0.4 of x = 2 and 0.35 of
+y = 0 (the medium under the moved corner, where the point contact squeezes it) into K in x and
+y. Q2 hexahedra (``--cell hexahedron``, default) or P2 tetrahedra, each hexahedron split into 6
+(``--cell tetrahedron``: the same nodes, so the same unknowns).
 
 Parameters
 ----------
 Solid: E = 5, nu = 0.3 (K = 25/6, mu = 25/13), Eq. 2. Medium: the same mu, bulk modulus
 ``--medium-K`` (default the solid's K, as dolfiny, whose medium is the solid's material scaled by
-gamma), ``--gamma``, ``--alpha-r``, ``--regularization`` (Eq. 3; dolfiny: gamma = 2e-6 and a
-rotation regularization on auxiliary fields). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
-(0, 0.25, -1.0) ("point contact", ``--contact point``, default) or (0, 0.5, -2.0) ("line
-contact"), times ``--scale`` (default 1) and the load factor. FEM only (``--method fem``): the
-SFVEM on polyhedra is not there yet.
+gamma), ``--gamma`` (default 1e-5), ``--alpha-r`` (default 10), ``--regularization`` (default
+rotation, Eq. 15 in its 3D form; dolfiny: gamma = 2e-6 and the rotation regularization on
+auxiliary fields, with weights of order one not scaled by gamma, i.e. a far stiffer
+regularization than alpha_r = 10). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
+(u_y, u_z) = (0.25, -1.0) ("point contact", ``--contact point``, default) or (0.5, -2.0) ("line
+contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny. FEM
+only (``--method fem``): the SFVEM on polyhedra is not there yet.
 
 What it prints and writes
 -------------------------
@@ -86,12 +90,16 @@ N_DEFAULT = (20, 4, 7)
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The shared demo options with the 3D C-box defaults, plus ``--n --cell --contact --medium-K``."""
+    """The shared demo options with the 3D C-box defaults, plus ``--n --tip-refinement --cell --contact
+    --medium-K --scale``."""
     p = common.parser("cbox3d", __doc__, steps=20, meshes=(1,), h=0.1, h_max=CBOX3D_T, gamma=1e-5,
-                      alpha_r=1.0, regularization="rotation")
+                      alpha_r=10.0, regularization="rotation")
     p.set_defaults(method="fem", h=None)
     p.add_argument("--n", type=common.positive_int, nargs=3, default=None, metavar=("NX", "NY", "NZ"),
                    help=f"cells per side (default {' '.join(map(str, N_DEFAULT))} unless --h is given)")
+    p.add_argument("--tip-refinement", type=common.positive_int, default=1, metavar="K",
+                   help="split the grid cells within 0.4 of x = 2 and 0.35 of y = 0 (under the moved corner) "
+                        "into K in x and y (default %(default)s)")
     p.add_argument("--cell", choices=("hexahedron", "tetrahedron"), default="hexahedron",
                    help="Q2 hexahedra or P2 tetrahedra, 6 per hexahedron (default %(default)s)")
     p.add_argument("--contact", choices=tuple(CONTACTS), default="point",
@@ -116,8 +124,8 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
         raise ValueError("cbox3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
     if args.n is not None and args.h is not None:
         raise ValueError("cbox3d: give --n or --h, not both")
-    box = (sf.meshes.cbox3d(h=args.h, cell=args.cell) if args.h is not None
-           else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell))
+    box = (sf.meshes.cbox3d(h=args.h, cell=args.cell, tip_refinement=args.tip_refinement) if args.h is not None
+           else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell, tip_refinement=args.tip_refinement))
     medium = sf.ThirdMedium(mu=MU, K=args.medium_K, gamma=args.gamma, alpha_r=args.alpha_r,
                             regularization=args.regularization, beta=args.beta)
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
@@ -125,7 +133,7 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
     problem.fix(box.marker("clamp"), name="clamp")
     tip = at_point(box.points["load"])
     uy, uz = (args.scale * u for u in CONTACTS[args.contact])
-    problem.prescribe(tip, ux=0.0, uy=uy, uz=uz, name="load")
+    problem.prescribe(tip, uy=uy, uz=uz, name="load")   # u_x free, as in dolfiny
     observers = {f"tip_u{c}": common.displacement_observer(problem, tip, i) for i, c in enumerate("xyz")}
     return problem, observers
 
