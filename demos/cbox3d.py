@@ -41,30 +41,37 @@ corner's reaction R_z and the smallest gap against the load factor).
 
 Commands
 --------
-Point contact, Q2 hexahedra, then P2 tetrahedra on the same nodes::
+Point contact (the defaults: Q2 hexahedra (20, 4, 7), alpha_r = 10), then P2 tetrahedra on
+the same nodes, then the line contact::
 
     mpirun -n 2 python3 demos/cbox3d.py --out out/cbox3d-hex
     mpirun -n 2 python3 demos/cbox3d.py --cell tetrahedron --out out/cbox3d-tet
+    mpirun -n 2 python3 demos/cbox3d.py --contact line --out out/cbox3d-line
 
 Measured
 --------
-2026-11-26, 1 rank, MUMPS LDL^T, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md):
+2026-11-26, MUMPS LDL^T, point contact, rotation regularization, gamma = 1e-5, on a machine
+loaded ~10x (docs/notes/2026-11-26-cbox3d-full-load.md; the earlier runs in
+docs/notes/2026-11-26-demos3d.md):
 
-=====================  =========  ========  ===================  ================================
-cells                  unknowns   load      Newton iterations    what stops it
-=====================  =========  ========  ===================  ================================
-Q2 hex (20, 4, 7)      16,605     0.807     155 (+141 failed)    medium inverts (J < 0) at 0.85;
-                                                                 beam tip 4.5e-3 into the lower
-                                                                 beam at 0.814 (overlap check)
-Q2 hex, HuHu 1e-4      16,605     0.35      --                   medium inverts
-P2 tet (20, 2, 7)      9,225      0.612     127 (+155 failed)    medium inverts at 0.62
-=====================  =========  ========  ===================  ================================
+=======================  =========  =======  ==========  ===========  =============================
+cells                    unknowns   alpha_r  load        Newton its   smallest gap; what stops it
+=======================  =========  =======  ==========  ===========  =============================
+Q2 hex (20, 4, 7)        16,605     10       **1**       100 (0)      0.040 at the full load
+Q2 hex (20, 4, 7)        16,605     1        0.807       155 (+141)   5.6e-4; medium inverts under
+                                                                      the tip corner, then the
+                                                                      overlap check (tip in beam)
+P2 tet (20, 4, 7)        16,605     10       0.496       88 (+60)     0.156; medium under the tip
+                                                                      corner inverts (stopped)
+=======================  =========  =======  ==========  ===========  =============================
 
-Default parameters (rotation, alpha_r = 1, gamma = 1e-5); Newton iterations of the converged
-steps (and of the failed ones); about 5 s per iteration for Q2, 2-4 s for P2. The smallest gap stays
-positive (5.6e-4 at 0.807). Not yet measured: the full load, P2 tetrahedra against Q2 hexahedra, the line
-contact. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded
-machine) the first time.
+Newton iterations of the converged steps (and of the failed ones); 1 rank, 4-5 s per iteration
+for both cell types on this machine; 7.7 min and 0.70 GB for the full Q2 path. The smallest gap is
+positive at every step of every run. alpha_r = 10 costs stiffness: the corner's reaction is 2 %
+(load 0.1) to 9 % (load 0.8) above alpha_r = 1's, and the beams meet later (gap 0.040 at the full
+load, bridged by medium squeezed to J = 0.013). P2 tetrahedra are 4.5 % stiffer than Q2
+hexahedra at small loads on this grid (one cell through each beam). Compiling the tangent takes
+~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded machine) the first time.
 """
 from __future__ import annotations
 

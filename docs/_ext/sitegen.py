@@ -65,11 +65,13 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz-vem-gamma1e-6-dual.png", "gamma = 1e-6, thin layer on dual polygons: full load"),
     ],
     "cbox3d": [
-        ("cbox3d-point-hex-deformed.png", "Point contact, Q2 hexahedra (20, 4, 7), rotation regularization: the solids "
-                                          "at load 0.807, the last converged step (the medium inverts beyond)"),
+        ("cbox3d-point-hex-deformed.png", "Point contact at the full load, Q2 hexahedra (20, 4, 7), rotation "
+                                          "regularization, gamma = 1e-5, alpha_r = 10 (the defaults): the upper "
+                                          "beam twisted down onto the lower one, which it pushes down"),
         ("cbox3d-point-hex-clip.png", "The same state cut normal to y through the solids' centre: the medium "
-                                      "squeezed between the beams"),
-        ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path"),
+                                      "squeezed between the beams (smallest gap 0.040, J down to 0.013)"),
+        ("cbox3d-point-hex-curves.png", "Reaction at the moved corner and smallest gap over the load path "
+                                        "(17 steps, 100 Newton iterations, no failed step)"),
     ],
     "hertz3d": [
         ("hertz3d-h0.1-gamma1e-6-curves.png", "h = 0.1, gamma = 1e-6, the last converged steps (load 0.7125): force "
