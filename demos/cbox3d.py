@@ -63,16 +63,20 @@ Q2 hex (20, 4, 7)        16,605     1        0.807       155 (+141)   5.6e-4; me
                                                                       overlap check (tip in beam)
 P2 tet (20, 4, 7)        16,605     10       0.496       88 (+60)     0.156; medium under the tip
                                                                       corner inverts (stopped)
+Q2 hex, line contact     16,605     10       0.549       133 (+13     -3.5e-3: the tip corner goes
+                                                         attempts)    into the lower beam (overlap
+                                                                      check); gap < 0 from 0.548
 =======================  =========  =======  ==========  ===========  =============================
 
-Newton iterations of the converged steps (and of the failed ones); 1 rank, 4-5 s per iteration
-for both cell types on this machine; 7.7 min and 0.70 GB for the full Q2 path. The smallest gap is
-positive at every step of every run. alpha_r = 10 costs stiffness: the corner's reaction is 2 %
-(load 0.1) to 9 % (load 0.8) above alpha_r = 1's, and the beams meet later (gap 0.040 at the full
-load, bridged by medium squeezed to J = 0.013). P2 tetrahedra (6 per grid cell) are stiffer than
-Q2 hexahedra at small loads: 4.5 % on (20, 4, 7), 4.4 % on (20, 4, 14), 6.9 % on (20, 8, 7) (the
-solid alone: 6.6 % on (20, 4, 7)); agreement within 2 % needs finer grids than were run. Compiling the tangent takes
-~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded machine) the first time.
+Newton iterations of the converged steps (and of the failed ones); 1 rank, 4-5 s per iteration for
+both cell types on this machine; 7.7 min and 0.70 GB for the full Q2 path. The smallest gap is
+positive at every step of the point-contact runs, not of the line contact's last four. alpha_r = 10
+costs stiffness: the corner's reaction is 2 % (load 0.1) to 9 % (load 0.8) above alpha_r = 1's, and
+the beams meet later (gap 0.040 at the full load, bridged by medium squeezed to J = 0.013). P2
+tetrahedra (6 per grid cell) are stiffer than Q2 hexahedra at small loads: 4.5 % on (20, 4, 7),
+4.4 % on (20, 4, 14), 6.9 % on (20, 8, 7) (the solid alone: 6.6 % on (20, 4, 7)); agreement within 2 %
+needs finer grids than were run. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min
+for P2 on the loaded machine) the first time.
 """
 from __future__ import annotations
 
