@@ -75,7 +75,8 @@ costs stiffness: the corner's reaction is 2 % (load 0.1) to 9 % (load 0.8) above
 the beams meet later (gap 0.040 at the full load, bridged by medium squeezed to J = 0.013). P2
 tetrahedra (6 per grid cell) are stiffer than Q2 hexahedra at small loads: 4.5 % on (20, 4, 7),
 4.4 % on (20, 4, 14), 6.9 % on (20, 8, 7) (the solid alone: 6.6 % on (20, 4, 7)); agreement within 2 %
-needs finer grids than were run. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min
+needs finer grids than were run, and may not come: the reaction of the one prescribed node is
+singular in the limit (an in-plane point load on the beam; it fell 8 % with --tip-refinement 2). Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min
 for P2 on the loaded machine) the first time.
 """
 from __future__ import annotations
