@@ -58,6 +58,7 @@ docs/notes/2026-11-26-demos3d.md):
 cells                    unknowns   alpha_r  load        Newton its   smallest gap; what stops it
 =======================  =========  =======  ==========  ===========  =============================
 Q2 hex (20, 4, 7)        16,605     10       **1**       100 (0)      0.040 at the full load
+Q2 hex, --tip-ref. 2     28,665     10       **1**       105 (0)      0.022 at the full load
 Q2 hex (20, 4, 7)        16,605     1        0.807       155 (+141)   5.6e-4; medium inverts under
                                                                       the tip corner, then the
                                                                       overlap check (tip in beam)
