@@ -12,18 +12,22 @@ The box [0, 2] x [0, 0.7] x [0, 0.7], wall thickness 0.1: the C lies in the x-z 
 extruded along y (wall x <= 0.1, beams z <= 0.1 and z >= 0.6); the medium fills x >= 0.1,
 0.1 <= z <= 0.6, open at x = 2, y = 0 and y = 0.7. A tensor-product grid of ``--n nx ny nz``
 cells (default 20 4 7; nx must put a grid line on x = 0.1 and nz on z = 0.1 and 0.6), or of
-size about ``--h``; Q2 hexahedra (``--cell hexahedron``, default) or P2 tetrahedra, each hexahedron
-split into 6 (``--cell tetrahedron``: the same nodes, so the same unknowns).
+size about ``--h``; ``--tip-refinement K`` splits the cells within 0.4 of x = 2 and 0.35 of
+y = 0 (the medium under the moved corner, where the point contact squeezes it) into K in x and
+y. Q2 hexahedra (``--cell hexahedron``, default) or P2 tetrahedra, each hexahedron split into 6
+(``--cell tetrahedron``: the same nodes, so the same unknowns).
 
 Parameters
 ----------
 Solid: E = 5, nu = 0.3 (K = 25/6, mu = 25/13), Eq. 2. Medium: the same mu, bulk modulus
 ``--medium-K`` (default the solid's K, as dolfiny, whose medium is the solid's material scaled by
-gamma), ``--gamma``, ``--alpha-r``, ``--regularization`` (Eq. 3; dolfiny: gamma = 2e-6 and a
-rotation regularization on auxiliary fields). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
-(0, 0.25, -1.0) ("point contact", ``--contact point``, default) or (0, 0.5, -2.0) ("line
-contact"), times ``--scale`` (default 1) and the load factor. FEM only (``--method fem``): the
-SFVEM on polyhedra is not there yet.
+gamma), ``--gamma`` (default 1e-5), ``--alpha-r`` (default 10), ``--regularization`` (default
+rotation, Eq. 15 in its 3D form; dolfiny: gamma = 2e-6 and the rotation regularization on
+auxiliary fields, with weights of order one not scaled by gamma, i.e. a far stiffer
+regularization than alpha_r = 10). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
+(u_y, u_z) = (0.25, -1.0) ("point contact", ``--contact point``, default) or (0.5, -2.0) ("line
+contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny. FEM
+only (``--method fem``): the SFVEM on polyhedra is not there yet.
 
 What it prints and writes
 -------------------------
@@ -37,30 +41,44 @@ corner's reaction R_z and the smallest gap against the load factor).
 
 Commands
 --------
-Point contact, Q2 hexahedra, then P2 tetrahedra on the same nodes::
+Point contact (the defaults: Q2 hexahedra (20, 4, 7), alpha_r = 10), then P2 tetrahedra on
+the same nodes, then the line contact::
 
     mpirun -n 2 python3 demos/cbox3d.py --out out/cbox3d-hex
     mpirun -n 2 python3 demos/cbox3d.py --cell tetrahedron --out out/cbox3d-tet
+    mpirun -n 2 python3 demos/cbox3d.py --contact line --out out/cbox3d-line
 
 Measured
 --------
-2026-11-26, 1 rank, MUMPS LDL^T, on a machine loaded ~10x (docs/notes/2026-11-26-demos3d.md):
+2026-11-26, MUMPS LDL^T, point contact, rotation regularization, gamma = 1e-5, on a machine
+loaded ~10x (docs/notes/2026-11-26-cbox3d-full-load.md; the earlier runs in
+docs/notes/2026-11-26-demos3d.md):
 
-=====================  =========  ========  ===================  ================================
-cells                  unknowns   load      Newton iterations    what stops it
-=====================  =========  ========  ===================  ================================
-Q2 hex (20, 4, 7)      16,605     0.807     155 (+141 failed)    medium inverts (J < 0) at 0.85;
-                                                                 beam tip 4.5e-3 into the lower
-                                                                 beam at 0.814 (overlap check)
-Q2 hex, HuHu 1e-4      16,605     0.35      --                   medium inverts
-P2 tet (20, 2, 7)      9,225      0.612     127 (+155 failed)    medium inverts at 0.62
-=====================  =========  ========  ===================  ================================
+=======================  =========  =======  ==========  ===========  =============================
+cells                    unknowns   alpha_r  load        Newton its   smallest gap; what stops it
+=======================  =========  =======  ==========  ===========  =============================
+Q2 hex (20, 4, 7)        16,605     10       **1**       100 (0)      0.040 at the full load
+Q2 hex, --tip-ref. 2     28,665     10       **1**       105 (0)      0.022 at the full load
+Q2 hex (20, 4, 7)        16,605     1        0.807       155 (+141)   5.6e-4; medium inverts under
+                                                                      the tip corner, then the
+                                                                      overlap check (tip in beam)
+P2 tet (20, 4, 7)        16,605     10       0.496       88 (+60)     0.156; medium under the tip
+                                                                      corner inverts (stopped)
+Q2 hex, line contact     16,605     10       0.549       133 (+13     -3.5e-3: the tip corner goes
+                                                         attempts)    into the lower beam (overlap
+                                                                      check); gap < 0 from 0.548
+=======================  =========  =======  ==========  ===========  =============================
 
-Default parameters (rotation, alpha_r = 1, gamma = 1e-5); Newton iterations of the converged
-steps (and of the failed ones); about 5 s per iteration for Q2, 2-4 s for P2. The smallest gap stays
-positive (5.6e-4 at 0.807). Not yet measured: the full load, P2 tetrahedra against Q2 hexahedra, the line
-contact. Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min for P2 on the loaded
-machine) the first time.
+Newton iterations of the converged steps (and of the failed ones); 1 rank, 4-5 s per iteration for
+both cell types on this machine; 7.7 min and 0.70 GB for the full Q2 path. The smallest gap is
+positive at every step of the point-contact runs, not of the line contact's last four. alpha_r = 10
+costs stiffness: the corner's reaction is 2 % (load 0.1) to 9 % (load 0.8) above alpha_r = 1's, and
+the beams meet later (gap 0.040 at the full load, bridged by medium squeezed to J = 0.013). P2
+tetrahedra (6 per grid cell) are stiffer than Q2 hexahedra at small loads: 4.5 % on (20, 4, 7),
+4.4 % on (20, 4, 14), 6.9 % on (20, 8, 7) (the solid alone: 6.6 % on (20, 4, 7)); agreement within 2 %
+needs finer grids than were run, and may not come: the reaction of the one prescribed node is
+singular in the limit (an in-plane point load on the beam; it fell 8 % with --tip-refinement 2). Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min
+for P2 on the loaded machine) the first time.
 """
 from __future__ import annotations
 
@@ -86,12 +104,16 @@ N_DEFAULT = (20, 4, 7)
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The shared demo options with the 3D C-box defaults, plus ``--n --cell --contact --medium-K``."""
+    """The shared demo options with the 3D C-box defaults, plus ``--n --tip-refinement --cell --contact
+    --medium-K --scale``."""
     p = common.parser("cbox3d", __doc__, steps=20, meshes=(1,), h=0.1, h_max=CBOX3D_T, gamma=1e-5,
-                      alpha_r=1.0, regularization="rotation")
+                      alpha_r=10.0, regularization="rotation")
     p.set_defaults(method="fem", h=None)
     p.add_argument("--n", type=common.positive_int, nargs=3, default=None, metavar=("NX", "NY", "NZ"),
                    help=f"cells per side (default {' '.join(map(str, N_DEFAULT))} unless --h is given)")
+    p.add_argument("--tip-refinement", type=common.positive_int, default=1, metavar="K",
+                   help="split the grid cells within 0.4 of x = 2 and 0.35 of y = 0 (under the moved corner) "
+                        "into K in x and y (default %(default)s)")
     p.add_argument("--cell", choices=("hexahedron", "tetrahedron"), default="hexahedron",
                    help="Q2 hexahedra or P2 tetrahedra, 6 per hexahedron (default %(default)s)")
     p.add_argument("--contact", choices=tuple(CONTACTS), default="point",
@@ -116,8 +138,8 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
         raise ValueError("cbox3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
     if args.n is not None and args.h is not None:
         raise ValueError("cbox3d: give --n or --h, not both")
-    box = (sf.meshes.cbox3d(h=args.h, cell=args.cell) if args.h is not None
-           else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell))
+    box = (sf.meshes.cbox3d(h=args.h, cell=args.cell, tip_refinement=args.tip_refinement) if args.h is not None
+           else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell, tip_refinement=args.tip_refinement))
     medium = sf.ThirdMedium(mu=MU, K=args.medium_K, gamma=args.gamma, alpha_r=args.alpha_r,
                             regularization=args.regularization, beta=args.beta)
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
@@ -125,7 +147,7 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
     problem.fix(box.marker("clamp"), name="clamp")
     tip = at_point(box.points["load"])
     uy, uz = (args.scale * u for u in CONTACTS[args.contact])
-    problem.prescribe(tip, ux=0.0, uy=uy, uz=uz, name="load")
+    problem.prescribe(tip, uy=uy, uz=uz, name="load")   # u_x free, as in dolfiny
     observers = {f"tip_u{c}": common.displacement_observer(problem, tip, i) for i, c in enumerate("xyz")}
     return problem, observers
 

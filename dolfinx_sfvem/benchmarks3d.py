@@ -163,8 +163,24 @@ def _cbox3d_tags(cx: np.ndarray, cy: np.ndarray, cz: np.ndarray) -> np.ndarray:
     return np.where((cx > T) & (cz > T) & (cz < H - T), MEDIUM, SOLID)
 
 
+#: the part of the 3D C-box that ``cbox3d(tip_refinement=k)`` refines: the last CBOX3D_TIP_X of the
+#: beams in x and the CBOX3D_TIP_Y next to the moved corner's face y = 0 in y (the medium under the
+#: upper beam's tip corner, where the point contact squeezes it hardest)
+CBOX3D_TIP_X, CBOX3D_TIP_Y = 0.4, 0.35
+
+
+def split_intervals(axis: np.ndarray, lo: float, hi: float, k: int) -> np.ndarray:
+    """The grid lines ``axis`` (increasing) with every interval that lies in [lo, hi] split into ``k``
+    equal ones (k >= 1; k = 1 returns ``axis`` unchanged)."""
+    a, b = axis[:-1], axis[1:]
+    inside = (a >= lo - 1e-12) & (b <= hi + 1e-12)
+    t = np.arange(1, k) / k
+    extra = (a[inside, None] + t[None, :] * (b - a)[inside, None]).ravel()
+    return np.sort(np.concatenate([axis, extra]))
+
+
 def cbox3d(n: Sequence[int] | None = None, h: float | None = None,
-           cell: GridCell = "hexahedron") -> Benchmark3D:
+           cell: GridCell = "hexahedron", tip_refinement: int = 1) -> Benchmark3D:
     """The 3D C-box of Wriggers et al. 2025 (Comput Mech, doi 10.1007/s00466-025-02628-y), as in
     dolfiny's ``demo/tmc/3D/Cbox_Wriggers_3D.py``.
 
@@ -176,6 +192,9 @@ def cbox3d(n: Sequence[int] | None = None, h: float | None = None,
     dolfiny's), or of size about ``h`` with the grid lines on x = 0.1, z = 0.1 and z = 0.6
     (``axis_nodes``; h = 0.05 gives 40 x 14 x 14); hexahedra, or each split into 6 tetrahedra
     (``cell="tetrahedron"``). With ``n``, the wall and beam faces must fall on grid lines.
+    ``tip_refinement = k`` splits into k the grid intervals within :data:`CBOX3D_TIP_X` of x = 2 and
+    within :data:`CBOX3D_TIP_Y` of y = 0 (whole grid planes: a tensor grid stays one), so the cells
+    under the moved corner are k times smaller in x and y.
 
     Named points: ``load`` (2, 0, 0.7), the corner moved by (0, 0.5, -2.0) (line contact) or
     (0, 0.25, -1.0) (point contact); ``gap_top`` (2, 0, 0.6) and ``gap_bottom`` (2, 0, 0.1), the
@@ -196,6 +215,10 @@ def cbox3d(n: Sequence[int] | None = None, h: float | None = None,
             if np.abs(axis - value).min() > 1e-9:
                 raise ValueError(f"cbox3d: n = {tuple(n)} puts no grid line on {name} = {value:g} (the C's wall)")
             axis[np.argmin(np.abs(axis - value))] = value
+    if not (isinstance(tip_refinement, (int, np.integer)) and tip_refinement >= 1):
+        raise ValueError(f"cbox3d: tip_refinement must be an integer >= 1, got {tip_refinement!r}")
+    xs = split_intervals(xs, L - CBOX3D_TIP_X, L, tip_refinement)
+    ys = split_intervals(ys, 0.0, CBOX3D_TIP_Y, tip_refinement)
     mesh = box_grid(xs, ys, zs, _cbox3d_tags, {}, cell)
     return Benchmark3D(mesh, {"solid": SOLID, "medium": MEDIUM},
                        {"load": (L, 0.0, H), "gap_top": (L, 0.0, H - T), "gap_bottom": (L, 0.0, T)},

@@ -172,6 +172,19 @@ def test_cbox3d_with_h_is_dolfinys_grid_and_refuses_grids_off_the_walls():
         meshes.cbox3d(n=(20, 2, 7), h=0.1)
 
 
+def test_cbox3d_tip_refinement_halves_the_cells_under_the_corner_only():
+    """k = 2: the grid intervals in x >= 1.6 and y <= 0.35 halved (4 + 2 more grid planes on
+    (20, 4, 7)), the regions' volumes unchanged, the cells elsewhere as before."""
+    coarse, fine = meshes.cbox3d(n=(20, 4, 7)).mesh, meshes.cbox3d(n=(20, 4, 7), tip_refinement=2).mesh
+    assert len(fine.cells) == 24 * 6 * 7
+    assert region_volumes(fine) == pytest.approx(region_volumes(coarse), rel=1e-12)
+    xs, ys = np.unique(fine.points[:, 0]), np.unique(fine.points[:, 1])
+    assert np.allclose(np.diff(xs), np.where(xs[:-1] >= 1.6 - 1e-12, 0.05, 0.1))
+    assert np.allclose(np.diff(ys), np.where(ys[:-1] < 0.35 - 1e-12, 0.0875, 0.175))
+    with pytest.raises(ValueError, match="tip_refinement"):
+        meshes.cbox3d(n=(20, 4, 7), tip_refinement=0)
+
+
 # --------------------------------------------------------------------------- Hertz
 def test_hertz3d_regions_markers_and_size_field():
     bench = meshes.hertz3d(h_contact=0.2, h_far=0.5)
