@@ -242,7 +242,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     view = contact_normal + 0.35 * normal + 0.25 * across / max(np.linalg.norm(across), 1e-300)
     plotter.camera_position = [tuple(contact_point + 4.0 * view * _size(x)), tuple(contact_point), _up(view)]
     low, high = np.reshape(loaded.bounds, (3, 2)).T
-    pad = 0.8 * (high - low).max()
+    pad = 0.3 * (high - low).max()
     plotter.reset_camera(bounds=np.column_stack([low - pad, high + pad]).ravel())
     plotter.enable_parallel_projection()
     plotter.add_axes()
