@@ -125,12 +125,6 @@ def make_parser() -> argparse.ArgumentParser:
     return p
 
 
-def at_point(point: typing.Sequence[float], tol: float = 1e-10) -> typing.Callable[[np.ndarray], np.ndarray]:
-    """Marker of the nodes at the 3D ``point``."""
-    p = np.asarray(point, dtype=np.float64)[:, None]
-    return lambda x: np.linalg.norm(x - p, axis=0) <= tol
-
-
 def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf.ContactProblem, dict]:
     """The 3D C-box of the command line on ``comm``: the problem (boundary conditions ``clamp`` and
     ``load``) and the observers ``tip_ux``, ``tip_uy``, ``tip_uz`` (the moved corner's displacement)."""
@@ -145,7 +139,7 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
                                 comm=comm, **common.discretization(args))
     problem.fix(box.marker("clamp"), name="clamp")
-    tip = at_point(box.points["load"])
+    tip = common.at_point(box.points["load"])
     uy, uz = (args.scale * u for u in CONTACTS[args.contact])
     problem.prescribe(tip, uy=uy, uz=uz, name="load")   # u_x free, as in dolfiny
     observers = {f"tip_u{c}": common.displacement_observer(problem, tip, i) for i, c in enumerate("xyz")}
