@@ -77,16 +77,26 @@ def make_parser() -> argparse.ArgumentParser:
     return p
 
 
+def chamber_names(regions: typing.Mapping[str, int]) -> list[str]:
+    """The chambers' region names (``chamber_1``, ...) of an actuator mesh, 2D or 3D."""
+    return [name for name in regions if name.startswith("chamber_")]
+
+
+def materials(regions: typing.Mapping[str, int], args: argparse.Namespace) -> dict[int, sf.Energy]:
+    """The actuator's energies by region tag, 2D or 3D: the elastomer, the stiffer base, and the
+    third medium (the command line's) in the gaps and every chamber."""
+    medium = common.third_medium(args, mu=MU_ELASTOMER)
+    return {regions["elastomer"]: sf.Hyperelastic(K=K_ELASTOMER, mu=MU_ELASTOMER),
+            regions["base"]: sf.Hyperelastic(K=K_BASE, mu=MU_BASE),
+            regions["gaps"]: medium, **{regions[name]: medium for name in chamber_names(regions)}}
+
+
 def build(benchmark: sf.meshes.Benchmark, args: argparse.Namespace) -> sf.ContactProblem:
     """The clamped actuator with every chamber under the cavity pressure λ p (loads
     ``chamber_1`` ... ``chamber_n``)."""
     regions = benchmark.regions
-    chambers = [name for name in regions if name.startswith("chamber_")]
-    medium = common.third_medium(args, mu=MU_ELASTOMER)
-    materials = {regions["elastomer"]: sf.Hyperelastic(K=K_ELASTOMER, mu=MU_ELASTOMER),
-                 regions["base"]: sf.Hyperelastic(K=K_BASE, mu=MU_BASE),
-                 regions["gaps"]: medium, **{regions[name]: medium for name in chambers}}
-    problem = sf.ContactProblem(benchmark.mesh, materials, **common.discretization(args))
+    chambers = chamber_names(regions)
+    problem = sf.ContactProblem(benchmark.mesh, materials(regions, args), **common.discretization(args))
     problem.fix(common.on_segment(*benchmark.segments["clamp"]), name="clamp")
     for name in chambers:
         problem.cavity_pressure(name, args.p, name=name)

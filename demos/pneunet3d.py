@@ -98,16 +98,14 @@ def build(bench: sf.meshes.Benchmark3D, args: argparse.Namespace,
           comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf.ContactProblem, dict]:
     """The clamped half actuator with every chamber under the cavity pressure λ p (loads
     ``chamber_1`` ... ``chamber_n``; boundary conditions ``clamp`` and ``symmetry``, the latter
-    without the nodes on the clamp, so that each reaction is its own) and the observers ``tip_bottom_ux``, ``tip_bottom_uz``, ``tip_top_ux``, ``tip_top_uz``."""
+    without the nodes on the clamp, so that each reaction is its own) and the observers
+    ``tip_bottom_ux``, ``tip_bottom_uz``, ``tip_top_ux``, ``tip_top_uz``."""
     if args.method != "fem":
         raise ValueError("pneunet3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
     regions = bench.regions
-    chambers = [name for name in regions if name.startswith("chamber_")]
-    medium = common.third_medium(args, mu=MU_ELASTOMER)
-    materials = {regions["elastomer"]: sf.Hyperelastic(K=K_ELASTOMER, mu=MU_ELASTOMER),
-                 regions["base"]: sf.Hyperelastic(K=K_BASE, mu=MU_BASE),
-                 regions["gaps"]: medium, **{regions[name]: medium for name in chambers}}
-    problem = sf.ContactProblem(bench.mesh, materials, comm=comm, **common.discretization(args))
+    chambers = actuator2d.chamber_names(regions)
+    problem = sf.ContactProblem(bench.mesh, actuator2d.materials(regions, args), comm=comm,
+                                **common.discretization(args))
     clamp, symmetry = bench.marker("clamp"), bench.marker("symmetry")
     problem.fix(clamp, name="clamp")
     problem.fix(lambda x: symmetry(x) & ~clamp(x), components="y", name="symmetry")  # the clamp holds its edge
