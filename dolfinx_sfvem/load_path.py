@@ -133,8 +133,8 @@ class LoadPath:
                         self._check_initial_state()      # a transferred state is checked by re-balancing
                     path = [self._rebalance(solver)] if rebalance else []
                     for attempt in itertools.chain(path, self.control.attempts(solver)):
-                        rec = self._record(attempt, sum(r["converged"] for r in self.records) + attempt.converged,
-                                           solver)
+                        n_converged = sum(r["converged"] for r in self.records) + attempt.converged
+                        rec = self._record(attempt, n_converged, solver)
                         self.records.append(asdict(rec))
                         if attempt.converged:
                             p.load = attempt.load
@@ -158,8 +158,7 @@ class LoadPath:
                                                   f"({rec.failure})")
                             self._undo_adaptation(*undo)
                             undo, adapt, refined = None, None, -1
-                        last_word.phase(f"the load step after load {p.load:.6g} "
-                                        f"({sum(r['converged'] for r in self.records)} converged steps)")
+                        last_word.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
                         if refined or stop.requested(p.comm):
                             break
                     solver.destroy()
