@@ -257,20 +257,21 @@ def cell_dofs(V: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
 
 
 # --------------------------------------------------------------------------- spaces, vectors, UFL
-def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
-    """Vector Lagrange space of ``degree`` (block size = geometric dimension)."""
+def vector_function_space(mesh: dolfinx.mesh.Mesh, degree: int, family: str = "Lagrange") -> dolfinx.fem.FunctionSpace:
+    """Vector Lagrange space of ``degree`` (block size = geometric dimension); ``family="DG"`` the
+    discontinuous one."""
     with compiling():                                  # a new element is compiled on a cold cache
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
-            return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
-        return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+            return dolfinx.fem.functionspace(mesh, (family, degree, (mesh.geometry.dim,)))
+        return dolfinx.fem.VectorFunctionSpace(mesh, (family, degree))
 
 
-def scalar_function_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
-    """Scalar Lagrange space of ``degree``."""
+def scalar_function_space(mesh: dolfinx.mesh.Mesh, degree: int, family: str = "Lagrange") -> dolfinx.fem.FunctionSpace:
+    """Scalar Lagrange space of ``degree``; ``family="DG"`` the discontinuous one."""
     with compiling():
         if hasattr(dolfinx.fem, "functionspace"):     # DOLFINx 0.11
-            return dolfinx.fem.functionspace(mesh, ("Lagrange", degree))
-        return dolfinx.fem.FunctionSpace(mesh, ("Lagrange", degree))
+            return dolfinx.fem.functionspace(mesh, (family, degree))
+        return dolfinx.fem.FunctionSpace(mesh, (family, degree))
 
 
 def interpolation_matrix(V_from: dolfinx.fem.FunctionSpace, V_to: dolfinx.fem.FunctionSpace) -> PETSc.Mat:

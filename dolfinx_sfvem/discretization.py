@@ -361,6 +361,17 @@ class Discretization(abc.ABC):
         with x.localForm() as xl:
             xl.array[:] = values_by_key(keys, values, self.node_key).ravel()
 
+    def output_state(self, v: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Owned values of the :attr:`output_mesh`'s nodes (its points, keyed by point index, and the
+        edge midpoints of :meth:`midpoint_keys`): (keys (k,), values (k, d)), what the contact checks
+        read. The state itself (:meth:`get_state`) where those nodes are the unknowns."""
+        return self.get_state(v)
+
+    def output_forces(self, f: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
+        """Nodal forces ``f`` (ghost contributions accumulated) on the nodes of :meth:`output_state`,
+        for the contact pressure's recovery; the forces themselves where those nodes are the unknowns."""
+        return self.get_state(f)
+
     @abc.abstractmethod
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys of the midpoints of the edges between the :attr:`output_mesh` points a and b (n,)."""

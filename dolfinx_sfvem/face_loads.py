@@ -1,6 +1,13 @@
 """Loads on the faces of a 3D mesh (the counterpart of :mod:`~dolfinx_sfvem.edge_loads`):
-traction, dead and follower pressure as UFL exterior-facet forms on the Lagrange
-discretization's DOLFINx mesh, and the open faces of a cavity pressure's region.
+traction, dead and follower pressure as UFL exterior-facet forms on the discretization's *host*
+space, and the open faces of a cavity pressure's region.
+
+The host (``disc.load_space``) is a P2 space on a DOLFINx mesh of tetrahedra or hexahedra: the
+Lagrange discretization's own space, or for the SFVEM on polyhedra the discontinuous P2 space of
+its fan mesh, where the state is T u with each face's projection of its trace on the face
+(:mod:`~dolfinx_sfvem.vem3d`). The discretization moves values between its
+unknowns and the host (``to_host``, ``add_from_host``, ``add_host_matrix``, ``nodes_of_host``:
+the identity for the Lagrange one), so one form serves both methods.
 
 The faces a load acts on are facet tags built from ``where`` (:func:`loaded_facets`). On the
 quadratic faces (P2 triangles, Q2 quadrilaterals) the forces at λ = 1 are, with N the reference
@@ -57,6 +64,18 @@ def exterior_facets(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
     return np.asarray(dolfinx.mesh.exterior_facet_indices(mesh.topology), dtype=np.int32)
 
 
+def of_owned_cells(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray:
+    """The ``facets`` (local) of at least one owned cell: a ghosted mesh's outer ghost layer has
+    facets with one local cell that are not on the boundary of the mesh."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    offsets, links = np.asarray(f2c.offsets), np.asarray(f2c.array)
+    owned = links < _compat.num_owned_cells(mesh)
+    has_owned = np.add.reduceat(owned, offsets[:-1]) > 0 if links.size else np.zeros(0, dtype=bool)
+    return facets[has_owned[facets]]
+
+
 def facet_normal_axes(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray:
     """Per facet the axis (0, 1, 2) it is normal to (a facet in a plane x = const is normal to
     axis 0), -1 for a facet off the coordinate planes."""
@@ -85,7 +104,7 @@ def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
             facets = np.asarray(facets, dtype=np.int32)
             mid = dolfinx.mesh.compute_midpoints(mesh, fdim, facets)
             return facets[np.asarray(where(mid.T[:3]), dtype=bool).reshape(-1)]
-        every = marked(dolfinx.mesh.locate_entities(mesh, fdim, lambda x: where(x[:3])))
+        every = of_owned_cells(mesh, marked(dolfinx.mesh.locate_entities(mesh, fdim, lambda x: where(x[:3]))))
         inner = np.setdiff1d(every, boundary)
         found = [tuple(np.round(dolfinx.mesh.compute_midpoints(mesh, fdim, inner[:1])[0], 12) + 0.0)] if inner.size \
             else []
@@ -115,24 +134,25 @@ class FaceForms:
         tags = _compat.create_facet_tags(mesh, facets, np.full(facets.size, LOADED, dtype=np.int32))
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags,
                               metadata={"quadrature_degree": disc.quadrature_degree})(LOADED)
-        self.u = dolfinx.fem.Function(disc.V)
-        self.v = ufl.TestFunction(disc.V)
+        self.u = dolfinx.fem.Function(disc.load_space)
+        self.v = ufl.TestFunction(disc.load_space)
         self.N = ufl.FacetNormal(mesh)
         self.F = ufl.Identity(3) + ufl.grad(self.u)
         self.scale = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
-        self._vector = disc.create_vector()
+        self._vector = _compat.create_petsc_vector(disc.load_space.dofmap.index_map, 3)
 
     def set_state(self, u: np.ndarray | None) -> None:
         """u (n_local_nodes, 3) of the local nodes, None: the reference state."""
-        self.u.x.array[:] = 0.0 if u is None else u.reshape(-1)
+        self.u.x.array[:] = 0.0 if u is None else self.disc.to_host(u)
+        self.u.x.scatter_forward()
 
     def add_vector(self, form: dolfinx.fem.Form, f: np.ndarray) -> None:
-        """f (n_local_nodes, 3) += the local (owned and ghost) entries of the assembled ``form``."""
+        """f (n_local_nodes, 3) += the local (owned and ghost) entries of the assembled ``form``,
+        taken from the host space to the unknowns (``disc.add_from_host``)."""
         with self._vector.localForm() as vl:
             vl.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self._vector, form)
-        with self._vector.localForm() as vl:
-            f.reshape(-1)[:] += vl.array_r
+        self.disc.add_from_host(self._vector, f)
 
     def scalar(self, form: dolfinx.fem.Form) -> float:
         """The form's value over all ranks (collective)."""
@@ -184,7 +204,7 @@ class BoundFacePressure(BoundLoad):
         forms = self.forms = FaceForms(disc, facets)
         if follower:
             force = -p * ufl.dot(cofactor(forms.F) * forms.N, forms.v) * forms.ds
-            self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.V)))
+            self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.load_space)))
             self._conjugate = compiled_form(forms.swept_volume())
         else:
             force = -p * ufl.dot(forms.N, forms.v) * forms.ds
@@ -204,7 +224,7 @@ class BoundFacePressure(BoundLoad):
     def add_stiffness(self, u: np.ndarray, A: PETSc.Mat, scale: float) -> None:
         self.forms.set_state(u)
         self.forms.scale.value = scale
-        dolfinx.fem.petsc.assemble_matrix(A, self._stiffness)
+        self.disc.add_host_matrix(A, self._stiffness)
 
     def measure(self, x: PETSc.Vec, load: float) -> dict[str, float]:
         with x.localForm() as xl:
@@ -221,7 +241,7 @@ class BoundCavityPressure3D(_BoundCavityPressure):
         super().__init__(name, disc, term, p, np.empty((0, 3), dtype=np.int64))
         fdim = disc.mesh.topology.dim - 1
         #: per axis k, the local nodes on the open faces normal to it
-        self.open_nodes = [dolfinx.fem.locate_dofs_topological(disc.V, fdim, open_facets[axes == k]).astype(np.int64)
+        self.open_nodes = [disc.nodes_of_host(dolfinx.fem.locate_dofs_topological(disc.V, fdim, open_facets[axes == k]))
                            for k in range(3)]
 
     def check_constraints(self, constrained: np.ndarray) -> None:

@@ -588,6 +588,31 @@ class LagrangeDiscretization(Discretization):
         """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
         return np.asarray(value(self.x_nodes[dofs // self.gdim].T), dtype=np.float64).reshape(-1)
 
+    # ------------------------------------------------------------------ the host space of face loads
+    @property
+    def load_space(self) -> dolfinx.fem.FunctionSpace:
+        """The space the face loads' forms live on (:mod:`~dolfinx_sfvem.face_loads`): this one."""
+        return self.V
+
+    def to_host(self, u: np.ndarray) -> np.ndarray:
+        """The values on the host space of the face loads (:mod:`~dolfinx_sfvem.face_loads`): the
+        local nodal values u themselves, flattened."""
+        return np.asarray(u).reshape(-1)
+
+    def add_from_host(self, host: PETSc.Vec, f: np.ndarray) -> None:
+        """f += an assembled vector of the host (its local entries, ghosts not accumulated): the
+        host's nodes are the unknowns' nodes."""
+        with host.localForm() as hl:
+            f.reshape(-1)[:] += hl.array_r
+
+    def add_host_matrix(self, A: PETSc.Mat, form) -> None:
+        """A += the assembled bilinear ``form`` of the host space (this space; A assembled by the caller)."""
+        dolfinx.fem.petsc.assemble_matrix(A, form)
+
+    def nodes_of_host(self, nodes: np.ndarray) -> np.ndarray:
+        """The local nodes hosted by the host nodes ``nodes``: the same."""
+        return np.asarray(nodes, dtype=np.int64)
+
     # ------------------------------------------------------------------ node keys
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the

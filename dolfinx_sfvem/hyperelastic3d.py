@@ -296,3 +296,4 @@ def hyperelastic_polyhedron(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike
     table = basis_table(np.ascontiguousarray(x_q), projections.centroid, projections.diameter, projections.l,
                         np.ascontiguousarray(projections.Pi_m), nphi)
     return HyperelasticPolyhedron(projections, kernels, constants, x_q, w_q, table)
+

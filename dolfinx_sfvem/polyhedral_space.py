@@ -50,8 +50,9 @@ from .logs import say
 from .polygon_mesh import concatenated_ranges, coordinate_bisection, next_entries, segment_owner
 from .monomials3d import exponents3
 from .polyhedron import tetrahedron_rule
-from .polyhedron_mesh import PolyhedronMesh
-from .projection3d import PolyhedronProjections
+from .monomials import evaluate_monomials
+from .polyhedron_mesh import PolyhedronMesh, plane_coordinates
+from .projection import ProjectionBlocks, pi_nabla_2, polygon_geometry
 from .quadrature import triangle_rule
 from .space import EdgeLookup, SFVEMNodes, number_sfvem_nodes
 
@@ -271,6 +272,8 @@ class PolyhedralSpace(SFVEMNodes):
         self.node_key[self.dofs] = key
         self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :3].copy()
         self._to_p2: scipy.sparse.csr_matrix | None = None
+        self._by_key: np.ndarray | None = None
+        self._to_trace = None
         self.global_nodes = np.asarray(self.index_map.local_to_global(np.arange(self.n_local_nodes, dtype=np.int32)),
                                        dtype=np.int64)
         say(log, self.summary(), verbose, comm)
@@ -388,59 +391,160 @@ class PolyhedralSpace(SFVEMNodes):
             xl.array[:] = values.ravel()
         return x
 
-    def to_function(self, x: PETSc.Vec, projections: typing.Sequence[PolyhedronProjections],
+    def to_function(self, x: PETSc.Vec, projections: ProjectionBlocks,
                     u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
-        """The P2 :class:`dolfinx.fem.Function` of an SFVEM state (for XDMF/VTK output).
-
-        The P2 nodes at polyhedron vertices and edge midpoints take their DOF values; every other
-        P2 node (face and cell centres, spoke midpoints) the value of Π^∇_2 u of one polyhedron
-        holding it (a node on a face: either of its two cells). Quadratic fields are exact.
+        """The P2 :class:`dolfinx.fem.Function` of an SFVEM state (output, loads on faces): the values
+        of :meth:`p2_interpolation` at the P2 nodes, continuous across faces.
 
         Parameters
         ----------
         x
             Ghosted SFVEM vector (ghost values up to date).
         projections
-            One per local polyhedron, in ``polyhedra`` order (``Pi_nabla``, ``centroid``,
-            ``diameter`` are used); those of the first call are kept for the later ones.
+            Of the local polyhedra, in ``polyhedra`` order (``Pi_nabla_of``, ``centroid``,
+            ``diameter``); those of the first call are kept for the later ones.
         u
             Function on ``self.V`` to fill; created when omitted.
         """
-        if self._to_p2 is None:
-            self._to_p2 = self._p2_interpolation(projections)
+        T = self.p2_interpolation(projections)
         u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
         with x.localForm() as xl:
-            values = xl.array.reshape(-1, 3)
-        u.x.array[:] = (self._to_p2 @ values).ravel()
+            values = xl.array_r.reshape(-1, 3)
+        u.x.array[:] = (T @ values).ravel()
         u.x.scatter_forward()
         return u
 
-    def _p2_interpolation(self, projections: typing.Sequence[PolyhedronProjections]) -> scipy.sparse.csr_matrix:
-        """Sparse map (n_local_p2, n_local_nodes) from SFVEM node values to P2 node values."""
+    def p2_interpolation(self, projections: ProjectionBlocks) -> scipy.sparse.csr_matrix:
+        """The sparse map T (n_local_p2, n_local_nodes) from SFVEM node values to the values at the P2
+        nodes of the owned fan tetrahedra (rows of the other P2 nodes are zero); built once.
+
+        A P2 node at a polyhedron vertex or edge midpoint takes its DOF. A node on a face (its fan
+        centre, the midpoints of the spokes to it) takes the face's own projection Π^∇_{2,f} of the
+        trace (the 2D projection of docs/method.md §2 in the face's plane), which depends on the
+        face's DOFs only: the same from both of its cells and on every partition. A node inside a
+        polyhedron (its centre, the spokes to it) takes Π^∇_2 u of the polyhedron (Eq. 36).
+        Quadratic fields are exact everywhere.
+        """
+        if self._to_p2 is not None:
+            return self._to_p2
+        mesh = self.polyhedron_mesh
+        n_p, n_f = mesh.n_points, mesh.n_faces
         im = self.V.dofmap.index_map
-        n_p2 = im.size_local + im.num_ghosts
-        owned_cells = _compat.num_owned_cells(self.mesh)
-        p2 = _compat.cell_dofs(self.V)[:owned_cells]
-        x_p2 = self.V.tabulate_dof_coordinates()[:, :3]
-        owner = np.full(n_p2, -1, dtype=np.int64)
-        owner[p2.ravel()] = np.repeat(np.searchsorted(self.polyhedra, self.cell_polyhedron[:owned_cells]), p2.shape[1])
-        direct = self.p2_node[self.node_kind <= MIDPOINT]
-        owner[direct] = -1
-        rows, cols, vals = [direct], [np.flatnonzero(self.node_kind <= MIDPOINT)], [np.ones(direct.size)]
+        owned = _compat.num_owned_cells(self.mesh)
+        p2 = _compat.cell_dofs(self.V)[:owned]
+        inp = _compat.input_node_index(self.mesh)[_compat.cell_geometry_nodes(self.mesh)[:owned]]
+        ends = np.concatenate([np.stack([inp, inp], axis=2),
+                               np.stack([inp[:, _TET_EDGES[:, 0]], inp[:, _TET_EDGES[:, 1]]], axis=2)], axis=1)
+        nodes, first = np.unique(p2.ravel(), return_index=True)
+        a, b = ends.reshape(-1, 2)[first].T
+        a, b = np.minimum(a, b), np.maximum(a, b)
+        x = 0.5 * (self.fan.nodes[a] + self.fan.nodes[b])
+        in_cell, on_face = b >= n_p + n_f, (b >= n_p) & (b < n_p + n_f)
+        direct = ~in_cell & ~on_face
+        keys = np.where(a == b, a, n_p + np.searchsorted(self._edges[:, 0] * n_p + self._edges[:, 1], a * n_p + b))
+        rows, cols, vals = [nodes[direct]], [self._node_of_key(keys[direct])], [np.ones(int(direct.sum()))]
+        for f in np.unique(b[on_face] - n_p):
+            at = np.flatnonzero(on_face & (b == n_p + f))
+            weights, dof_keys = self._face_trace(f, x[at])
+            rows.append(np.repeat(nodes[at], dof_keys.size))
+            cols.append(np.tile(self._node_of_key(dof_keys), at.size))
+            vals.append(weights.ravel())
         exponents = exponents3(2)
-        nodes = np.flatnonzero(owner >= 0)
-        by_owner = nodes[np.argsort(owner[nodes], kind="stable")]
-        starts = np.searchsorted(owner[by_owner], np.arange(len(projections) + 1))
-        for k, proj in enumerate(projections):
-            at = by_owner[starts[k]:starts[k + 1]]
-            xi = (x_p2[at] - proj.centroid) / proj.diameter
+        cell = np.searchsorted(self.polyhedra, b - n_p - n_f)
+        for k in np.unique(cell[in_cell]):
+            at = np.flatnonzero(in_cell & (cell == k))
+            xi = (x[at] - projections.centroid[k]) / projections.diameter[k]
             m = np.prod(xi[:, None, :] ** exponents[None], axis=2)                  # (n, 10)
             dofs = self.polyhedron_dofs(k)
-            rows.append(np.repeat(at, dofs.size))
+            rows.append(np.repeat(nodes[at], dofs.size))
             cols.append(np.tile(dofs, at.size))
-            vals.append((m @ proj.Pi_nabla).ravel())
-        return scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                       shape=(n_p2, self.n_local_nodes))
+            vals.append((m @ projections.Pi_nabla_of(k)).ravel())
+        self._to_p2 = scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                              shape=(im.size_local + im.num_ghosts, self.n_local_nodes))
+        return self._to_p2
+
+    def face_trace_interpolation(self) -> tuple[dolfinx.fem.FunctionSpace, scipy.sparse.csr_matrix]:
+        """The space of loads on faces and the map from SFVEM node values into it (built once).
+
+        The space W is the discontinuous vector P2 space of the fan mesh. On the face triangle of
+        every owned fan tetrahedron its nodes take the face's projection Π^∇_{2,f} u (a quadratic on
+        the whole face: the trace the face's DOFs define, whose mean is the face-mean DOF); its other
+        nodes are left at zero, so a form on W may use only the traces on facets and their tangential
+        derivatives (tractions, pressures, cof F N). A load ∫_f t · v dA on W is then
+        ∫_f t · Π^∇_{2,f} v dA: a constant traction lands on the face-mean DOFs, as the element's own
+        flux of a homogeneous stress does (docs/method.md §8).
+
+        Returns
+        -------
+        W : dolfinx.fem.FunctionSpace
+        T : (n_local_W_nodes, n_local_nodes) scipy.sparse.csr_matrix
+            Rows of the face nodes of the owned tetrahedra (the other rows are zero).
+        """
+        if self._to_trace is not None:
+            return self._to_trace
+        mesh = self.polyhedron_mesh
+        n_p, n_f = mesh.n_points, mesh.n_faces
+        W = _compat.vector_function_space(self.mesh, 2, "DG")
+        owned = _compat.num_owned_cells(self.mesh)
+        dofs = _compat.cell_dofs(W)[:owned]                                        # (n, 10)
+        x_w = W.tabulate_dof_coordinates()[:, :3]
+        inp = _compat.input_node_index(self.mesh)[_compat.cell_geometry_nodes(self.mesh)[:owned]]
+        face = np.where((inp >= n_p) & (inp < n_p + n_f), inp - n_p, -1).max(axis=1)
+        centre = self.fan.nodes[inp.max(axis=1)]                                    # the cell centre
+        # a node is on the face triangle when its distance to the face's plane vanishes
+        corners = self.fan.nodes[np.sort(inp, axis=1)[:, :3]]
+        normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        height = np.einsum("ij,ij->i", centre - corners[:, 0], normal)
+        off_face = np.einsum("ikj,ij->ik", x_w[dofs] - corners[:, None, 0], normal) / height[:, None]
+        on_face = np.abs(off_face) < 1e-8
+        rows, cols, vals = [], [], []
+        for f in np.unique(face):
+            at = np.flatnonzero(face == f)
+            nodes = dofs[at][on_face[at]]
+            weights, keys = self._face_trace(f, x_w[nodes])
+            rows.append(np.repeat(nodes, keys.size))
+            cols.append(np.tile(self._node_of_key(keys), nodes.size))
+            vals.append(weights.ravel())
+        im = W.dofmap.index_map
+        T = scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                    shape=(im.size_local + im.num_ghosts, self.n_local_nodes))
+        self._to_trace = (W, T)
+        return self._to_trace
+
+    def _node_of_key(self, keys: np.ndarray) -> np.ndarray:
+        """Local SFVEM nodes (n,) of the node keys (n,) (RuntimeError if one is not local)."""
+        if self._by_key is None:
+            self._by_key = np.argsort(self.node_key)
+        pos = self._by_key[np.minimum(np.searchsorted(self.node_key, keys, sorter=self._by_key), self.node_key.size - 1)]
+        if not np.array_equal(self.node_key[pos], keys):
+            raise RuntimeError("a face or cell DOF is missing from this rank's nodes")
+        return pos
+
+    def _face_trace(self, f: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weights (n, 2 N + 1) of Π^∇_{2,f} v at the points x (n, 3) of face f (N sides) and the
+        keys (2 N + 1,) of the DOFs they weigh: the face's vertices in its cyclic order, its side
+        midpoints (side i from vertex i to i + 1) and its mean."""
+        mesh = self.polyhedron_mesh
+        n_p = mesh.n_points
+        vertices = mesh.face(f)
+        p = mesh.points[vertices]
+        normal = np.cross(p - p.mean(axis=0), np.roll(p, -1, axis=0) - p.mean(axis=0)).sum(axis=0)
+        normal /= np.linalg.norm(normal)
+        origin = p.mean(axis=0)
+        xy = plane_coordinates(mesh.points, vertices, origin, normal)
+        area, x_f, h_f = polygon_geometry(xy)
+        Pi = pi_nabla_2(xy, x_f, h_f, area)                                          # (6, 2 N + 1)
+        uv = plane_coordinates(np.ascontiguousarray(x), np.arange(len(x), dtype=np.int64), origin, normal)
+        m, dm_dx, dm_dy = np.empty(6), np.empty(6), np.empty(6)
+        weights = np.empty((len(x), Pi.shape[1]))
+        for i in range(len(x)):
+            evaluate_monomials(uv[i], x_f, h_f, 2, m, dm_dx, dm_dy)
+            weights[i] = m @ Pi
+        nxt = np.roll(vertices, -1)
+        sides = np.searchsorted(self._edges[:, 0] * n_p + self._edges[:, 1],
+                                np.minimum(vertices, nxt) * n_p + np.maximum(vertices, nxt))
+        keys = np.concatenate([vertices, n_p + sides, [n_p + self._edges.shape[0] + f]]).astype(np.int64)
+        return weights, keys
 
     def boundary_nodes(self) -> npt.NDArray[np.int64]:
         """Local SFVEM nodes on the boundary of the mesh: the vertices, edge midpoints and face means

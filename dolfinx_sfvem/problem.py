@@ -38,6 +38,7 @@ from .equilibrium import Equilibrium
 from .linear_solvers import linear_solver_options
 from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
 from .polygon_mesh import PolygonMesh
+from .polyhedron_mesh import PolyhedronMesh
 from .refine import Refinement, refine_mesh
 from .run_summary import Observer, Result
 from .snes import DEFAULT_PREFIX
@@ -95,10 +96,13 @@ def _component(c: int | str, name: str, gdim: int = 2) -> int:
     return index
 
 
-def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh:
+def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh | PolyhedronMesh:
     """The problem's mesh from what the user gives: a :class:`PolygonMesh`, a 3D :class:`CellMesh`,
-    a 2D :class:`CellMesh` (turned into the polygon mesh of its cells) or a pair ``(dolfinx mesh,
-    cell tags)`` (gathered into a :class:`CellMesh` on every rank, collective)."""
+    a :class:`PolyhedronMesh` (or an octree mesh, as its polyhedra), a 2D :class:`CellMesh` (turned
+    into the polygon mesh of its cells) or a pair ``(dolfinx mesh, cell tags)`` (gathered into a
+    :class:`CellMesh` on every rank, collective)."""
+    if hasattr(mesh, "polyhedra") and callable(mesh.polyhedra):       # OctreeMesh
+        mesh = mesh.polyhedra()
     if isinstance(mesh, tuple) and len(mesh) == 2:
         mesh = CellMesh.from_dolfinx(*mesh)
     if isinstance(mesh, CellMesh) and mesh.tdim == 2:
@@ -107,8 +111,8 @@ def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh:
                                insert_hanging_nodes=False)
         polygons.region_names.update(mesh.region_names)
         return polygons
-    if not isinstance(mesh, (PolygonMesh, CellMesh)):
-        raise ValueError(f"mesh: give a PolygonMesh, a CellMesh or a pair (dolfinx mesh, cell tags), not "
+    if not isinstance(mesh, (PolygonMesh, CellMesh, PolyhedronMesh)):
+        raise ValueError(f"mesh: give a PolygonMesh, a CellMesh, a PolyhedronMesh or a pair (dolfinx mesh, cell tags), not "
                          f"{type(mesh).__name__}")
     return mesh
 
@@ -138,13 +142,16 @@ class ContactProblem:
     mesh
         Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.cell_mesh.CellMesh`; or a pair
         ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (affine) and
-        its region tags (:func:`as_mesh`). 3D meshes take ``method="fem"`` only.
+        its region tags (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh`
+        (octree, Voronoi, extruded polygons; ``method="vem"`` only).
     materials
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
     method
-        ``"vem"`` (order-2 SFVEM on the polygons) or ``"fem"`` (P2 Lagrange triangles on the
-        same geometry and regions, :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`; in 3D P2
-        on tetrahedra, Q2 on hexahedra, the cells of the mesh).
+        ``"vem"`` (order-2 SFVEM on the polygons; in 3D on the polyhedra, a tetrahedral or hexahedral
+        mesh's cells read as polyhedra, :class:`~dolfinx_sfvem.vem3d.PolyhedralDiscretization`) or
+        ``"fem"`` (P2 Lagrange triangles on the same geometry and regions,
+        :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`; in 3D P2 on tetrahedra, Q2 on
+        hexahedra, the cells of the mesh).
     comm
         MPI communicator.
     overlap_tolerance
@@ -166,13 +173,13 @@ class ContactProblem:
         ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
-        ``l``, ``l_min`` for ``"vem"``; ``fem_h`` for ``"fem"`` (triangle size; default
+        ``l``, ``l_min`` for ``"vem"`` (and ``quadrature`` in 3D); ``fem_h`` for ``"fem"`` (triangle size; default
         None: matched to the SFVEM unknowns of ``mesh``, see
         :func:`~dolfinx_sfvem.remesh.matched_triangulation`).
 
     Attributes
     ----------
-    mesh : PolygonMesh or CellMesh
+    mesh : PolygonMesh, CellMesh or PolyhedronMesh
     gdim : int
         The dimension d: 2 or 3.
     disc : Discretization
@@ -200,10 +207,10 @@ class ContactProblem:
             raise ValueError(f"petsc_options_prefix must be a non-empty string without a leading '-', "
                              f"got {petsc_options_prefix!r}")
         mesh = as_mesh(mesh)
-        self.gdim = mesh.gdim if isinstance(mesh, CellMesh) else 2
-        if self.gdim == 3 and method == "vem":
-            raise ValueError("method='vem': the SFVEM on polyhedra is not available yet; use method='fem' "
-                             "(P2 tetrahedra, Q2 hexahedra) for a 3D mesh")
+        self.gdim = 3 if isinstance(mesh, PolyhedronMesh) else mesh.gdim if isinstance(mesh, CellMesh) else 2
+        if isinstance(mesh, PolyhedronMesh) and method == "fem":
+            raise ValueError("method='fem' needs tetrahedra or hexahedra: give a CellMesh (a PolyhedronMesh is for "
+                             "method='vem')")
         self.method = method
         self.comm = comm
         self.verbose = options.get("verbose", True)
@@ -225,7 +232,11 @@ class ContactProblem:
         boundary for the contact checks and a zero state vector."""
         self.mesh = mesh
         options = {k: v for k, v in self._options.items() if k != "overlap_tolerance"}
-        if self.method == "vem":
+        if self.method == "vem" and self.gdim == 3:
+            from .vem3d import PolyhedralDiscretization
+            polyhedra = mesh if isinstance(mesh, PolyhedronMesh) else PolyhedronMesh.from_cell_mesh(mesh)
+            self.disc = PolyhedralDiscretization(polyhedra, self.materials, self.comm, **options)
+        elif self.method == "vem":
             from .vem import SFVEMDiscretization
             self.disc = SFVEMDiscretization(mesh, self.materials, self.comm, **options)
         elif isinstance(mesh, CellMesh):
@@ -496,7 +507,7 @@ class ContactProblem:
     def contact_gap(self) -> Gap:
         """The smallest signed gap between the deformed solids at the current state, with where
         it occurs (collective; :mod:`~dolfinx_sfvem.contact`)."""
-        return self.boundary.gap_of_state(self.comm, *self.disc.get_state(self.x))
+        return self.boundary.gap_of_state(self.comm, *self.disc.output_state(self.x))
 
     def contact_pressure(self) -> ContactPressure:
         """Normal pressure of the medium on the solids at every boundary node (from the medium's
@@ -511,7 +522,8 @@ class ContactProblem:
         f, f_material = self.disc.create_vector(), self.disc.create_vector()
         self.disc.medium_force(self.x, f)
         self.disc.medium_force(self.x, f_material, regularization=False)
-        u, forces, material = (self.boundary.gather(self.comm, *self.disc.get_state(v)) for v in (self.x, f, f_material))
+        u = self.boundary.gather(self.comm, *self.disc.output_state(self.x))
+        forces, material = (self.boundary.gather(self.comm, *self.disc.output_forces(v)) for v in (f, f_material))
         f.destroy()
         f_material.destroy()
         return self.comm.bcast(self.boundary.gap_and_pressure(u, forces, material) if self.comm.rank == 0 else None,

@@ -28,10 +28,10 @@ def uniaxial(P11_of):
     return scipy.optimize.fsolve(equations, [1.0, 1.0], xtol=1e-14)
 
 
-def bar(tiny3d):
+def bar(tiny3d, method="fem"):
     points, cells = tiny3d.hex_grid((2, 1, 1), LENGTHS)
     problem = sf.ContactProblem(CellMesh(points, cells, np.ones(len(cells)), "hexahedron"),
-                                {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
+                                {1: sf.Hyperelastic(K=K, mu=MU)}, method=method, verbose=False)
     for axis in range(3):
         problem.fix(lambda x, axis=axis: np.isclose(x[axis], 0.0), components=[axis], name="xyz"[axis] + "0")
     return problem
@@ -40,12 +40,14 @@ def bar(tiny3d):
 END = staticmethod(lambda x: np.isclose(x[0], 2.0))
 
 
+@pytest.mark.parametrize("method", ["fem", "vem"])
 @pytest.mark.parametrize("kind", ["traction", "dead", "follower"])
-def test_homogeneous_bar_under_face_loads(kind, tiny3d):
+def test_homogeneous_bar_under_face_loads(kind, method, tiny3d):
     """A traction σ e_x on the end face, a dead pressure -σ and a follower pressure -σ there:
-    P_11 = σ for the first two, σ s² (the deformed area) for the follower."""
+    P_11 = σ for the first two, σ s² (the deformed area) for the follower. Q2 and the SFVEM on
+    the hexahedra as polyhedra (its face loads act on the host's P2 traces) are exact."""
     sigma = 0.2
-    problem = bar(tiny3d)
+    problem = bar(tiny3d, method)
     if kind == "traction":
         load = problem.traction(END, (sigma, 0.0, 0.0))
         exact = uniaxial(lambda stretch, s: sigma)
@@ -140,7 +142,7 @@ def test_thick_sphere_against_lame(follower):
     assert measured["displacement"] == pytest.approx(np.pi / 2 * fine, rel=0.02)
 
 
-def cube_cavity(tiny3d, with_medium: bool):
+def cube_cavity(tiny3d, with_medium: bool, method: str = "fem"):
     """[0, 2]³ of 2 x 2 x 2 hexahedra, symmetry planes x, y, z = 0; the cell [0, 1]³ is the
     cavity: third medium (tag 2) or left out."""
     points, cells = tiny3d.hex_grid(2, (2.0, 2.0, 2.0))
@@ -152,28 +154,31 @@ def cube_cavity(tiny3d, with_medium: bool):
     materials = {1: sf.Hyperelastic(K=K, mu=MU)}
     if with_medium:
         materials[2] = sf.ThirdMedium(mu=MU, gamma=1e-7, alpha_r=1e-8, regularization="huhu")
-    problem = sf.ContactProblem(CellMesh(points, cells, tags, "hexahedron"), materials, method="fem", verbose=False)
+    problem = sf.ContactProblem(CellMesh(points, cells, tags, "hexahedron"), materials, method=method, verbose=False)
     for axis in range(3):
         problem.fix(lambda x, axis=axis: np.isclose(x[axis], 0.0), components=[axis], name="xyz"[axis] + "0")
     return problem
 
 
-def test_cavity_pressure_equals_follower_pressure_on_the_cavity_walls(tiny3d):
+@pytest.mark.parametrize("method", ["fem", "vem"])
+def test_cavity_pressure_equals_follower_pressure_on_the_cavity_walls(method, tiny3d):
     """−p ∫ (J − 1) over a medium-filled cavity closed by symmetry planes and a follower pressure
     on the walls of the empty cavity give the same state (to the medium's stiffness, gamma 1e-7)
     and the same conjugate displacement: the cavity's volume change = the swept volume."""
     p = 0.05
-    filled = cube_cavity(tiny3d, True)
+    filled = cube_cavity(tiny3d, True, method)
     cavity = filled.cavity_pressure(2, p)
-    empty = cube_cavity(tiny3d, False)
+    empty = cube_cavity(tiny3d, False, method)
     walls = empty.pressure(lambda x: np.all(x <= 1.0 + 1e-12, axis=0) & np.any(np.isclose(x, 1.0), axis=0), p)
     results = [problem.solve(steps=2) for problem in (filled, empty)]
     assert all(r.converged for r in results)
     corner = [problem.displacement_at([[2.0, 2.0, 2.0], [1.0, 1.0, 1.0]]) for problem in (filled, empty)]
-    assert corner[0] == pytest.approx(corner[1], rel=1e-5)
+    # the SFVEM's ΔV sums the faces' own traces (face projections), which differ along shared edges:
+    # the two loads agree to the discretization error there, 0.5 % on this single-cell cavity
+    assert corner[0] == pytest.approx(corner[1], rel=1e-5 if method == "fem" else 1e-2)
     assert corner[1][1][0] > 0.0                                   # the cavity opens
     volume = [r.steps[-1]["loads"][name]["displacement"] for r, name in zip(results, (cavity.name, walls.name))]
-    assert volume[0] == pytest.approx(volume[1], rel=1e-5)
+    assert volume[0] == pytest.approx(volume[1], rel=1e-5 if method == "fem" else 1e-3)
 
 
 def test_cavity_open_to_a_free_face_is_refused(tiny3d):

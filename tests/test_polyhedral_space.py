@@ -12,7 +12,7 @@ from dolfinx_sfvem.elasticity import linear_elastic_stiffness_3d
 from dolfinx_sfvem.meshes import extrude_polygons, octree_box, voronoi_box
 from dolfinx_sfvem.polyhedral_space import CELL, FACE, MIDPOINT, VERTEX, PolyhedralSpace, fan_mesh, n_unknowns
 from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.projection3d import polyhedron_projections
+from dolfinx_sfvem.projection3d import build_projections_3d
 from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry, polyhedron_quadrature, face_quadrature
 
 WORLD = MPI.COMM_WORLD
@@ -235,7 +235,9 @@ def test_located_nodes_are_those_of_the_face_on_every_partition():
 @pytest.mark.parametrize("name", ["grid", "prisms"])
 def test_p2_function_of_a_quadratic_is_the_quadratic(name):
     S = space(name, parallel=True)
-    projections = [polyhedron_projections(*S.polyhedron_mesh.polyhedron(c)) for c in S.polyhedra]
+    m = S.polyhedron_mesh
+    projections = build_projections_3d(m.points, m.face_offsets, m.face_vertices, m.cell_offsets, m.cell_faces,
+                                       m.cell_face_signs, cells=S.polyhedra)
     x = S.interpolate(quadratic, degree=2)
     u = S.to_function(x, projections)
     expected = quadratic(S.V.tabulate_dof_coordinates().T).T
