@@ -26,8 +26,8 @@ rotation, Eq. 15 in its 3D form; dolfiny: gamma = 2e-6 and the rotation regulari
 auxiliary fields, with weights of order one not scaled by gamma, i.e. a far stiffer
 regularization than alpha_r = 10). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
 (u_y, u_z) = (0.25, -1.0) ("point contact", ``--contact point``, default) or (0.5, -2.0) ("line
-contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny. FEM
-only (``--method fem``): the SFVEM on polyhedra is not there yet.
+contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny.
+``--method vem``: the SFVEM on the cells read as polyhedra.
 
 What it prints and writes
 -------------------------
@@ -128,8 +128,6 @@ def make_parser() -> argparse.ArgumentParser:
 def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf.ContactProblem, dict]:
     """The 3D C-box of the command line on ``comm``: the problem (boundary conditions ``clamp`` and
     ``load``) and the observers ``tip_ux``, ``tip_uy``, ``tip_uz`` (the moved corner's displacement)."""
-    if args.method != "fem":
-        raise ValueError("cbox3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
     if args.n is not None and args.h is not None:
         raise ValueError("cbox3d: give --n or --h, not both")
     box = (sf.meshes.cbox3d(h=args.h, cell=args.cell, tip_refinement=args.tip_refinement) if args.h is not None

@@ -124,8 +124,6 @@ def make_parser() -> argparse.ArgumentParser:
 
 def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     """The quarter Hertz model of the command line and the observer ``top_uz``."""
-    if args.method != "fem":
-        raise ValueError("hertz3d: only --method fem in 3D (the SFVEM on polyhedra is not there yet)")
     bench = sf.meshes.hertz3d(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius,
                               h_core=args.h_core, core_radius=args.core_radius)
     s = args.stiffness

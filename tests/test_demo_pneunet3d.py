@@ -49,11 +49,6 @@ def test_demo_writes_its_outputs(demo):
     assert "The load path:" in (out / "actuator.md").read_text()
 
 
-def test_sfvem_refused():
-    """The SFVEM on polyhedra is not there yet: --method vem is invalid input (exit code 2)."""
-    assert pn.common.exit_code(pn.main, ["--method", "vem", "--quiet"]) == 2
-
-
 def test_walls_approach_without_crossing_and_the_chambers_grow(demo):
     """The gap between the chambers falls at every step from the 2 mm spacing, below half of it,
     and stays positive; every chamber's volume and the bending angle grow at every step."""

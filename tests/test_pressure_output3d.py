@@ -49,7 +49,7 @@ def exact_stress() -> float:
     return neo_hookean_Pzz(s)
 
 
-def sandwich(box_grid, cell, n=1, rollers=True, comm=MPI.COMM_WORLD) -> sf.ContactProblem:
+def sandwich(box_grid, cell, n=1, rollers=True, comm=MPI.COMM_WORLD, method="fem") -> sf.ContactProblem:
     """The stack on [0, 1]² (n x n cells across), bottom held in z, the top pressed down by PRESS;
     the sides on rollers, or else only the planes x = 0 and y = 0 (a quarter of a wider stack) and
     only the top's quarter x, y <= 1/2 pressed (a punch)."""
@@ -58,7 +58,7 @@ def sandwich(box_grid, cell, n=1, rollers=True, comm=MPI.COMM_WORLD) -> sf.Conta
     mesh = CellMesh(arrays.points, arrays.cells, arrays.tags, cell)
     solid = sf.Hyperelastic(K=K, mu=MU)
     medium = sf.ThirdMedium(mu=MU, K=K, gamma=GAMMA, alpha_r=1e-3, regularization="huhu")
-    problem = sf.ContactProblem(mesh, {1: solid, 2: medium, 3: solid}, method="fem", comm=comm, verbose=False)
+    problem = sf.ContactProblem(mesh, {1: solid, 2: medium, 3: solid}, method=method, comm=comm, verbose=False)
     for axis, name in ((0, "x"), (1, "y")):
         sides = (0.0, 1.0) if rollers else (0.0,)
         problem.fix(lambda x, a=axis, s=sides: np.isin(np.round(x[a], 12), s), components=name, name=f"{name}-rollers")
@@ -117,6 +117,35 @@ def test_uniaxial_strain_pressure_is_exact(box_grid, cell, tmp_path):
     assert [t for t, _ in xdmf_attribute(tmp / "displacement.xdmf", "u")] == pytest.approx([0.5, 1.0])
 
 
+def test_sfvem_uniaxial_strain_pressure_is_exact(box_grid):
+    """The SFVEM on the hexahedra as polyhedra: the medium's force on a face sits on its face-mean
+    DOF (a homogeneous stress's flux), and the recovered pressure at every node of the fan
+    triangles of both contact faces, the reaction and the pair's force are the exact stress."""
+    problem = sandwich(box_grid, "hexahedron", method="vem")
+    result = problem.solve(steps=2)
+    assert result.converged
+    P = exact_stress()
+    assert problem.reactions()["press"][2] == pytest.approx(P, rel=1e-8)
+    pressure = problem.contact_pressure()
+    on = contact_faces(pressure)
+    assert on.sum() == 2 * 13        # per face: 4 vertices, 4 edge midpoints, the centre, 4 spoke midpoints
+    np.testing.assert_allclose(pressure.pressure[on], -P, rtol=1e-8)
+    for pair in pressure.pairs:
+        assert pair.force[2] == pytest.approx(P if pair.region == 1 else -P, rel=1e-8)
+        assert pair.zone_length == pytest.approx(1.0, rel=1e-12)
+    gap = problem.contact_gap()
+    h_solid = (Z[1] - Z[0]) + (Z[3] - Z[2])
+    assert gap.value == pytest.approx(Z[2] - Z[1] - PRESS - h_solid * (exact_stress_stretch() - 1.0), rel=1e-8)
+
+
+def exact_stress_stretch() -> float:
+    """The solids' stretch s of :func:`exact_stress`'s state."""
+    h_solid, h_medium = (Z[1] - Z[0]) + (Z[3] - Z[2]), Z[2] - Z[1]
+    return scipy.optimize.brentq(
+        lambda s: neo_hookean_Pzz(s) - neo_hookean_Pzz(1.0 + (-PRESS - h_solid * (s - 1.0)) / h_medium, GAMMA),
+        1.0 - PRESS / h_solid, 1.0, xtol=1e-15)
+
+
 def integrated_pressure(problem: sf.ContactProblem, pressure: sf.ContactPressure, region: int) -> np.ndarray:
     """∫ p n da over the deformed face of ``region`` against the medium: the pressure linear on the
     surface's flat sub-triangles between its degree-2 nodes, n their outward normal (3,)."""
@@ -128,11 +157,11 @@ def integrated_pressure(problem: sf.ContactProblem, pressure: sf.ContactPressure
     return (pressure.pressure[tri].mean(axis=1)[:, None] * area_vector).sum(axis=0)
 
 
-@pytest.mark.parametrize("cell", CELLS)
-def test_integrated_pressure_carries_the_reaction(box_grid, cell):
+@pytest.mark.parametrize("cell, method", [(cell, "fem") for cell in CELLS] + [("hexahedron", "vem")])
+def test_integrated_pressure_carries_the_reaction(box_grid, cell, method):
     """Free sides and a punch on a quarter of the top: the pressure varies over the contact faces,
     and its integral over each of them carries the reaction."""
-    problem = sandwich(box_grid, cell, n=2, rollers=False)
+    problem = sandwich(box_grid, cell, n=2, rollers=False, method=method)
     assert problem.solve(steps=2).converged
     R = problem.reactions()["press"][2]
     pressure = problem.contact_pressure()
