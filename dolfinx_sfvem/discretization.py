@@ -450,3 +450,39 @@ class Discretization(abc.ABC):
     @abc.abstractmethod
     def describe(self) -> dict:
         """Mesh facts for summary.json (JSON-serialisable)."""
+
+
+class OnSFVEMNodes(Discretization):
+    """A discretization whose nodes are the nodes of an SFVEM space, ``self.space``
+    (:class:`~dolfinx_sfvem.space.SFVEMNodes`: polygons or polyhedra): sizes, coordinates, keys,
+    vectors and the located nodes are the space's."""
+
+    space: typing.Any
+
+    @property
+    def n_owned_nodes(self) -> int:
+        return self.space.n_owned_nodes
+
+    @property
+    def n_local_nodes(self) -> int:
+        return self.space.n_local_nodes
+
+    @property
+    def num_dofs_global(self) -> int:
+        return self.space.num_dofs_global
+
+    @property
+    def x_nodes(self) -> np.ndarray:
+        return self.space.x_nodes
+
+    @property
+    def node_key(self) -> np.ndarray:
+        return self.space.node_key
+
+    def create_vector(self) -> PETSc.Vec:
+        return self.space.create_vector()
+
+    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
+        """Local SFVEM nodes selected by ``marker`` (means at the points hosting them) and/or region
+        ``tags`` (:meth:`SFVEMNodes.locate_nodes`)."""
+        return self.space.locate_nodes(marker, tags)

@@ -19,7 +19,7 @@ from petsc4py import PETSc
 from . import _compat, node_keys
 from .assemble import (PolygonTables, basis_derivative_tables, coo_pattern, first_piola_at, load_loop,
                        projected_fields, residual_loop, tangent_loop)
-from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
+from .discretization import AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials
 from .enclosed_area import area_force_loop, area_tangent_loop
 from .energy import Energy, VolumeWork
 from .injectivity import folded_elements, gather_count
@@ -69,7 +69,7 @@ class _AreaTerm:
         return self.term.params
 
 
-class SFVEMDiscretization(Discretization):
+class SFVEMDiscretization(OnSFVEMNodes):
     """Order-2 SFVEM discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ on a polygon mesh.
 
     Parameters
@@ -123,9 +123,6 @@ class SFVEMDiscretization(Discretization):
         self.element_loops = (self._loop_offsets, self._loop, space.polygons)
 
     # ------------------------------------------------------------------ PETSc objects
-    def create_vector(self) -> PETSc.Vec:
-        return self.space.create_vector()
-
     def coarse_interpolation(self) -> PETSc.Mat:
         """The vertex values into the unknowns (:meth:`VEMSpace.coarse_interpolation`)."""
         return self.space.coarse_interpolation()
@@ -278,26 +275,6 @@ class SFVEMDiscretization(Discretization):
         return space.x_q, space.w_q, u_q, grad_q
 
     # ------------------------------------------------------------------ locating unknowns
-    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local SFVEM nodes selected by marker and/or tags (:meth:`VEMSpace.locate_nodes`)."""
-        return self.space.locate_nodes(marker, tags)
-
-    @property
-    def n_owned_nodes(self) -> int:
-        return self.space.n_owned_nodes
-
-    @property
-    def n_local_nodes(self) -> int:
-        return self.space.n_local_nodes
-
-    @property
-    def x_nodes(self) -> np.ndarray:
-        return self.space.x_nodes
-
-    @property
-    def node_key(self) -> np.ndarray:
-        return self.space.node_key
-
     @property
     def node_point(self) -> np.ndarray:
         return self.space.node_point
@@ -353,10 +330,6 @@ class SFVEMDiscretization(Discretization):
         """Mesh facts for summary.json."""
         return {"polygons": int(self.space.polygon_mesh.n_polygons),
                 "projection_order_histogram": {str(k): v for k, v in self.space.l_histogram().items()}}
-
-    @property
-    def num_dofs_global(self) -> int:
-        return self.space.num_dofs_global
 
     def output_function(self, x: PETSc.Vec, u=None):
         """The solution as a P2 DOLFINx Function on the sub-triangulation."""

@@ -33,7 +33,7 @@ import dolfinx.fem.petsc
 from . import _compat
 from .cell_mesh import CellMesh
 from .compiled_energy import compile_kernels
-from .discretization import AssemblyInfo, Discretization, EnergyTerm, Marker, check_materials
+from .discretization import AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials
 from .enclosed_volume import EnclosedVolume
 from .energy import Energy, VolumeWork
 from .polygon_mesh import edge_key
@@ -65,7 +65,7 @@ class _CavityTerm:
         return self.term.params
 
 
-class PolyhedralDiscretization(Discretization):
+class PolyhedralDiscretization(OnSFVEMNodes):
     """Order-2 SFVEM discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ on a polyhedral mesh (module docstring).
 
     Parameters
@@ -129,33 +129,8 @@ class PolyhedralDiscretization(Discretization):
                                      mesh.tags[space.fan.tetrahedron_cell], "tetrahedron", mesh.region_names)
         self._host_products: dict[int, tuple[PETSc.Mat, PETSc.Mat | None]] = {}
         self._T_petsc: PETSc.Mat | None = None
-        self._deformation = None
-
-    # ------------------------------------------------------------------ sizes and nodes
-    @property
-    def n_owned_nodes(self) -> int:
-        return self.space.n_owned_nodes
-
-    @property
-    def n_local_nodes(self) -> int:
-        return self.space.n_local_nodes
-
-    @property
-    def num_dofs_global(self) -> int:
-        return self.space.num_dofs_global
-
-    @property
-    def x_nodes(self) -> np.ndarray:
-        return self.space.x_nodes
-
-    @property
-    def node_key(self) -> np.ndarray:
-        return self.space.node_key
 
     # ------------------------------------------------------------------ PETSc objects
-    def create_vector(self) -> PETSc.Vec:
-        return self.space.create_vector()
-
     def create_matrix(self) -> PETSc.Mat:
         """AIJ matrix with the COO pattern of the polyhedron blocks and the owned diagonal."""
         A = self.space.create_matrix()
@@ -267,10 +242,6 @@ class PolyhedralDiscretization(Discretization):
             projected_fields(self._tables, self.x_q, proj.centroid, proj.diameter, proj.Pi_nabla_offsets,
                              proj.Pi_nabla, xl.array_r.reshape(-1, 3), u_q, grad_q)
         return self.x_q, self._tables.w_q, u_q, grad_q
-
-    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local SFVEM nodes selected by marker (face and cell means at their fan centres) and/or tags."""
-        return self.space.locate_nodes(marker, tags)
 
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values of ``value(x) -> (n,)`` at the unknowns ``dofs`` of one component: point values at
