@@ -569,6 +569,9 @@ class ContactProblem:
         if self.method != "vem":
             raise ValueError("refine: only method='vem' can be refined with hanging nodes; for the FEM build a "
                              "finer problem instead")
+        if self.gdim == 3:
+            raise ValueError("refine: a 3D problem is not refined in place; refine the octree "
+                             "(sf.meshes.octree_box(...).refine(where, levels)) and build the problem on it")
         refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
         self.move_to(refinement)
         return refinement
@@ -669,8 +672,9 @@ class ContactProblem:
                              "from the current state")
         if not (0.0 < until <= 1.0):
             raise ValueError(f"until must be a load factor in (0, 1], got {until!r}")
-        if adapt is not None and (resume or self.method != "vem"):
-            raise ValueError("adapt: adaptive refinement needs method='vem' and cannot resume a stopped run")
+        if adapt is not None and (resume or self.method != "vem" or self.gdim == 3):
+            raise ValueError("adapt: adaptive refinement needs method='vem' on a 2D mesh and cannot resume a "
+                             "stopped run")
         if from_current_state and until < self.load - 1e-12:
             raise ValueError(f"until = {until:g} lies below the load factor {self.load:g} already reached")
         if control is None:

@@ -82,6 +82,11 @@ def test_three_d_errors(tiny3d):
     octree = meshes(tiny3d)["octree"]
     with pytest.raises(ValueError, match="method='fem' needs tetrahedra or hexahedra"):
         sf.ContactProblem(octree, {int(octree.tags[0]): sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
+    on_polyhedra = sf.ContactProblem(octree, {int(octree.tags[0]): sf.Hyperelastic(K=K, mu=MU)}, verbose=False)
+    with pytest.raises(ValueError, match="refine the octree"):
+        on_polyhedra.refine(lambda x: x[0] < 1.0)
+    with pytest.raises(ValueError, match="on a 2D mesh"):
+        on_polyhedra.solve(steps=1, adapt=sf.Adaptivity())
     problem = sf.ContactProblem(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
     with pytest.raises(ValueError, match="component 'w'"):
         problem.fix(lambda x: x[0] < 0.1, components="w")
