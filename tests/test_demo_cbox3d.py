@@ -15,12 +15,24 @@ COARSE = ["--n", "20", "1", "7", "--cell", "tetrahedron", "--scale", "0.05", "--
           "--regularization", "huhu"]
 
 
-def reactions(comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, list[float]]:
-    """The reactions after the coarse run on ``comm`` (no output directory)."""
-    args = cbox3d.common.parse_args(cbox3d.make_parser(), COARSE)
+def coarse(method: str = "fem") -> list[str]:
+    """The coarse command line: P2 tetrahedra for the FEM, the SFVEM on the grid's hexahedra."""
+    cell = "tetrahedron" if method == "fem" else "hexahedron"
+    at = COARSE.index("--cell")
+    return COARSE[:at] + ["--cell", cell] + COARSE[at + 2:] + ["--method", method]
+
+
+def run(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None):
+    """The converged coarse problem on ``comm`` (no output directory)."""
+    args = cbox3d.common.parse_args(cbox3d.make_parser(), argv or coarse())
     problem, _ = cbox3d.build(args, comm)
     assert problem.solve(control=cbox3d.common.load_stepping(args)).converged
-    return problem.reactions()
+    return problem
+
+
+def reactions(comm: MPI.Comm = MPI.COMM_WORLD, method: str = "fem") -> dict[str, list[float]]:
+    """The reactions after the coarse run on ``comm``."""
+    return run(comm, coarse(method)).reactions()
 
 
 def test_reactions_balance():
@@ -37,13 +49,9 @@ def test_sfvem_on_the_hexahedra_follows_q2():
     converged, the clamp carries the corner's load, the gap stays open, and the corner's reaction
     is within the coarse grid's discretization error of Q2's (12 % measured; the refinement study
     is bench/cbox3d_vem_fem.py)."""
-    def run(method):
-        argv = COARSE[:COARSE.index("--cell")] + ["--cell", "hexahedron"] + COARSE[COARSE.index("--cell") + 2:]
-        args = cbox3d.common.parse_args(cbox3d.make_parser(), argv + ["--method", method])
-        problem, _ = cbox3d.build(args, MPI.COMM_SELF)
-        assert problem.solve(control=cbox3d.common.load_stepping(args)).converged
-        return problem
-    vem, fem = run("vem"), run("fem")
+    hexahedra = coarse("fem")
+    hexahedra[hexahedra.index("tetrahedron")] = "hexahedron"
+    vem, fem = run(MPI.COMM_SELF, coarse("vem")), run(MPI.COMM_SELF, hexahedra)
     assert vem.disc.num_dofs_global == fem.disc.num_dofs_global
     r_vem, r_fem = (np.array(p.reactions()["load"]) for p in (vem, fem))
     assert np.allclose(r_vem + np.array(vem.reactions()["clamp"]), 0.0, atol=1e-6 * np.linalg.norm(r_vem))
@@ -52,9 +60,10 @@ def test_sfvem_on_the_hexahedra_follows_q2():
 
 
 @pytest.mark.mpi
-def test_same_reactions_on_one_and_two_ranks():
+@pytest.mark.parametrize("method", ["fem", "vem"])
+def test_same_reactions_on_one_and_two_ranks(method):
     """The coarse run on all ranks and on each rank alone: the reactions agree to 1e-9."""
-    world = reactions(MPI.COMM_WORLD)
-    alone = reactions(MPI.COMM_SELF)
+    world = reactions(MPI.COMM_WORLD, method)
+    alone = reactions(MPI.COMM_SELF, method)
     for name in alone:
         assert np.allclose(world[name], alone[name], rtol=1e-9, atol=1e-12 * np.abs(alone[name]).max())
