@@ -207,12 +207,14 @@ class BoundFacePressure(BoundLoad):
         self.p = p
         self.follows = self.has_stiffness = follower
         forms = self.forms = FaceForms(disc, facets)
-        #: the local nodes of every local edge of the loaded surface's boundary curve (m, 3)
+        #: the local nodes (two vertices, the mid-edge node) of every local edge of the loaded
+        #: surface's boundary curve (m, 3)
         self.curve_nodes = np.zeros((0, 3), dtype=np.int64)
         if follower:
             curve = surface_boundary_edges(disc.mesh, facets, disc.comm)
-            self.curve_nodes = np.array([dolfinx.fem.locate_dofs_topological(disc.V, 1, np.array([e], dtype=np.int32))
-                                         for e in curve], dtype=np.int64).reshape(curve.size, -1)
+            self.curve_nodes = np.array([dolfinx.fem.locate_dofs_topological(disc.V, 1, np.array([e], dtype=np.int32),
+                                                                             remote=False)    # local: not collective
+                                         for e in curve], dtype=np.int64).reshape(-1, 3)
             force = -p * ufl.dot(cofactor(forms.F) * forms.N, forms.v) * forms.ds
             self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.V)))
             self._conjugate = compiled_form(forms.swept_volume())
