@@ -109,9 +109,9 @@ def surface_boundary_edges(mesh: dolfinx.mesh.Mesh, facets: np.ndarray, comm: MP
     """The local edges (mesh entities of dimension 1) of the boundary curve of the surface made of
     the loaded ``facets`` (local): the edges of exactly one loaded facet, counted over all ranks
     (each facet by its owner; edges named by their global vertex pair). Empty for a closed
-    surface (collective)."""
+    surface (collective). Creates the mesh's edges and their connectivity to vertices and cells."""
     topology = mesh.topology
-    for dims in ((2, 1), (1, 0)):
+    for dims in ((2, 1), (1, 0), (1, 3)):       # edge -> cell: for locating the edges' dofs (DOLFINx 0.11)
         topology.create_connectivity(*dims)
     f2e, e2v = topology.connectivity(2, 1), topology.connectivity(1, 0)
     per_facet = int(f2e.offsets[1] - f2e.offsets[0]) if len(f2e.offsets) > 1 else 3
