@@ -204,15 +204,12 @@ class VTXSeries:
     Attributes
     ----------
     path : pathlib.Path
-    written : int
-        Steps written so far.
     """
     _unavailable_logged = False
 
     def __init__(self, comm: MPI.Comm, path: pathlib.Path, u):
         import dolfinx.fem
         self.path = path
-        self.written = 0
         self.writer = None
         if not _compat.has_vtx():
             if not VTXSeries._unavailable_logged and comm.rank == 0:
@@ -231,7 +228,6 @@ class VTXSeries:
             return
         self.pressure.interpolate(pressure)
         self.writer.write(load)
-        self.written += 1
 
     def close(self) -> None:
         """Close the directory (its steps stay readable; collective)."""
