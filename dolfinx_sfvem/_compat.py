@@ -16,6 +16,7 @@ kernel's argument count), never by comparing version strings. The rest of the pa
 - PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES domain errors), called
   through ctypes on the object handles, and option defaults that keep PETSc's behaviour
   (:data:`PETSC_OPTION_DEFAULTS`),
+- the VTX (ADIOS2) writer, where DOLFINx was built with ADIOS2 (:func:`vtx_writer`),
 - for the P2 FEM reference: cell and facet tags, basix quadrature rules and compiled expressions.
 
 With the ``dolfinx-solver-real`` wheel, ``dolfinx_solver`` must be imported before any
@@ -29,6 +30,7 @@ import ctypes
 import functools
 import inspect
 import pathlib
+import typing
 
 with contextlib.suppress(ImportError):
     import dolfinx_solver  # noqa: F401  (the dolfinx-solver-* wheels: MPI before the bindings)
@@ -452,6 +454,29 @@ def mat_set_values_coo(A: PETSc.Mat, values: npt.NDArray[np.float64], mode: int 
 def snes_set_function_domain_error(snes: PETSc.SNES) -> None:
     """Tell SNES that the last trial point is outside the domain of the residual (e.g. J <= 0)."""
     _check(_libpetsc().SNESSetFunctionDomainError(snes.handle), "SNESSetFunctionDomainError")
+
+
+# --------------------------------------------------------------------------- output
+#: the ADIOS2 engine of the VTX series: BP4, which every ParaView that reads VTX opens (BP5,
+#: ADIOS2's default since 2.9, needs ParaView >= 5.11)
+VTX_ENGINE = "BP4"
+
+
+def has_vtx() -> bool:
+    """Whether DOLFINx was built with ADIOS2 and offers ``dolfinx.io.VTXWriter``: the 0.11 wheel
+    does, Debian 12's 0.5.2 (``python3-dolfinx``, built without ADIOS2) does not."""
+    import dolfinx.io
+    return hasattr(dolfinx.io, "VTXWriter")
+
+
+def vtx_writer(comm: MPI.Comm, path: str | pathlib.Path, functions: typing.Sequence[dolfinx.fem.Function]):
+    """A ``dolfinx.io.VTXWriter`` of ``functions`` into the ADIOS2 directory ``path``
+    (:data:`VTX_ENGINE`); the functions must share one Lagrange element (any degree, any block
+    size), the mesh is written once (its geometry does not change). Only when :func:`has_vtx`."""
+    import dolfinx.io
+    policy = getattr(dolfinx.io, "VTXMeshPolicy", None)
+    return dolfinx.io.VTXWriter(comm, str(path), list(functions), engine=VTX_ENGINE,
+                                **({"mesh_policy": policy.reuse} if policy is not None else {}))
 
 
 # --------------------------------------------------------------------------- P2 FEM reference

@@ -124,6 +124,31 @@ def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
     return chosen.astype(np.int32)
 
 
+def surface_boundary_edges(mesh: dolfinx.mesh.Mesh, facets: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+    """The local edges (mesh entities of dimension 1) of the boundary curve of the surface made of
+    the loaded ``facets`` (local): the edges of exactly one loaded facet, counted over all ranks
+    (each facet by its owner; edges named by their global vertex pair). Empty for a closed
+    surface (collective). Creates the mesh's edges and their connectivity to vertices and cells."""
+    topology = mesh.topology
+    for dims in ((2, 1), (1, 0), (1, 3)):       # edge -> cell: for locating the edges' dofs (DOLFINx 0.11)
+        topology.create_connectivity(*dims)
+    f2e, e2v = topology.connectivity(2, 1), topology.connectivity(1, 0)
+    per_facet = int(f2e.offsets[1] - f2e.offsets[0]) if len(f2e.offsets) > 1 else 3
+    facet_edges = np.asarray(f2e.array).reshape(-1, per_facet)
+    edges = np.unique(facet_edges[facets])
+
+    def keys(local_edges):
+        vertices = np.asarray(e2v.array).reshape(-1, 2)[local_edges].reshape(-1)
+        global_vertices = np.asarray(topology.index_map(0).local_to_global(vertices.astype(np.int32)))
+        return np.sort(global_vertices.reshape(-1, 2).astype(np.int64), axis=1)
+    owned = facets[facets < topology.index_map(2).size_local]
+    counted = [k for part in comm.allgather(keys(facet_edges[owned].reshape(-1))) for k in part]
+    counted = np.asarray(counted, dtype=np.int64).reshape(-1, 2)
+    unique, count = np.unique(counted, axis=0, return_counts=True)
+    once = {tuple(k) for k in unique[count == 1].tolist()}
+    return edges[[tuple(k) in once for k in keys(edges).tolist()]].astype(np.int32)
+
+
 class FaceForms:
     """The UFL forms of a face load on the loaded facets (module docstring); evaluated at the
     state given to :meth:`set_state`."""
@@ -202,9 +227,18 @@ class BoundFacePressure(BoundLoad):
         self.p = p
         self.follows = self.has_stiffness = follower
         forms = self.forms = FaceForms(disc, facets)
+        #: the local nodes (two vertices, the mid-edge node) of every local edge of the loaded
+        #: surface's boundary curve (m, 3)
+        self.curve_nodes = np.zeros((0, 3), dtype=np.int64)
+        if follower and disc.continuous_face_traces:
+            curve = surface_boundary_edges(disc.mesh, facets, disc.comm)
+            self.curve_nodes = np.array([dolfinx.fem.locate_dofs_topological(disc.V, 1, np.array([e], dtype=np.int32),
+                                                                             remote=False)    # local: not collective
+                                         for e in curve], dtype=np.int64).reshape(-1, 3)
         if follower:
             force = -p * ufl.dot(cofactor(forms.F) * forms.N, forms.v) * forms.ds
-            self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u, ufl.TrialFunction(disc.load_space)))
+            self._stiffness = compiled_form(forms.scale * ufl.derivative(force, forms.u,
+                                                                         ufl.TrialFunction(disc.load_space)))
             self._conjugate = compiled_form(forms.swept_volume())
         else:
             force = -p * ufl.dot(forms.N, forms.v) * forms.ds
@@ -213,9 +247,34 @@ class BoundFacePressure(BoundLoad):
         self.reference_norm = _largest_entry(self, None)
 
     def symmetric_with(self, constrained: np.ndarray) -> bool:
-        """A follower pressure's stiffness is symmetric on a closed surface or one whose edges are
-        held; not checked on faces (reported as possibly unsymmetric)."""
-        return not self.follows
+        """Whether the load stiffness is symmetric once the unknowns ``constrained`` (local mask
+        (n_local_dofs,), 3 per node) are eliminated (collective): a dead pressure always; a
+        follower one when the boundary term ∮ p (δu × Δu) · dx of its stiffness's skew part
+        vanishes on every edge of the loaded surface's boundary curve (none on a closed surface;
+        docs/notes/2026-11-26-follower-pressure-symmetry.md). On an edge it does when the
+        components constrained at all of its nodes are
+
+        - two or three: δu and Δu are both along the free axis (or 0), δu × Δu = 0;
+        - the one normal to a plane x_k = const that holds the edge (a symmetry plane with its
+          normal displacement fixed): δu × Δu is along e_k, the deformed edge stays in the
+          plane, dx ⊥ e_k.
+
+        Otherwise (a free edge, one constrained component across the edge) it is reported as not
+        symmetric, and the solver uses LU. So is every follower pressure of a discretization whose
+        load space holds each face's own trace (``disc.continuous_face_traces`` False, the SFVEM on
+        polyhedra): two faces' traces differ along their common edge, whose skew terms then do not
+        cancel, and an edge's held DOFs do not hold the face's projected trace there."""
+        if not self.follows:
+            return True
+        if not self.disc.continuous_face_traces:       # the SFVEM: each face's own trace, see below
+            return False
+        nodes = self.curve_nodes
+        held = constrained[3 * nodes[:, :, None] + np.arange(3)].all(axis=1)              # (m, 3)
+        x = self.disc.x_nodes[nodes]                                                      # (m, k, 3)
+        extent = np.ptp(x, axis=1)
+        in_plane = extent <= 1e-10 * np.maximum(extent.max(axis=1, keepdims=True, initial=0.0), 1e-300)
+        vanishing = (held.sum(axis=1) >= 2) | np.any(held & in_plane, axis=1)
+        return not self.comm.allreduce(bool(np.any(~vanishing)), op=MPI.LOR)
 
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
         self.forms.set_state(u)

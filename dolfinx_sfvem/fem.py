@@ -589,6 +589,9 @@ class LagrangeDiscretization(Discretization):
         return np.asarray(value(self.x_nodes[dofs // self.gdim].T), dtype=np.float64).reshape(-1)
 
     # ------------------------------------------------------------------ the host space of face loads
+    #: the face loads' traces are continuous across the faces' edges (:mod:`~dolfinx_sfvem.face_loads`)
+    continuous_face_traces = True
+
     @property
     def load_space(self) -> dolfinx.fem.FunctionSpace:
         """The space the face loads' forms live on (:mod:`~dolfinx_sfvem.face_loads`): this one."""

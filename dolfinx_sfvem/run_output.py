@@ -2,12 +2,15 @@
 
 A run directory holds ``summary.json`` (:meth:`~dolfinx_sfvem.load_path.LoadPath.summary`),
 ``load_path.csv``, ``displacement.xdmf``/``.h5`` (the displacement ``u`` and the contact pressure
-:data:`PRESSURE_FIELD` of every converged step) and :data:`CHECKPOINT`; all but the XDMF pair
-are rewritten atomically after every converged step, so a run killed at any moment leaves a
-consistent directory that ``solve(..., resume=True)`` continues (docs/architecture.md).
+:data:`PRESSURE_FIELD` of every converged step), the same fields in the VTX series
+``displacement.bp`` where DOLFINx has ADIOS2 (:class:`VTXSeries`) and :data:`CHECKPOINT`; all but
+the XDMF pair and the VTX series are rewritten atomically after every converged step, so a run
+killed at any moment leaves a consistent directory that ``solve(..., resume=True)`` continues
+(docs/architecture.md).
 """
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 import pathlib
@@ -180,6 +183,59 @@ class PressureField:
         return self.function
 
 
+class VTXSeries:
+    """The displacement ``u`` and the contact pressure :data:`PRESSURE_FIELD` of every converged
+    step in an ADIOS2 directory (VTX, for ParaView) beside the XDMF pair. ``u`` is written at its own
+    degree (P2, or Q2 on hexahedra: no interpolation to degree 1 as in the XDMF series), the
+    pressure interpolated into the scalar space of the same degree (exact: its degree-1 field is
+    in it; VTX writes fields of one element only). Only where DOLFINx was built with ADIOS2
+    (:func:`._compat.has_vtx`: the 0.11 wheel, not Debian's 0.5.2); elsewhere nothing is written
+    and that is logged once per process.
+
+    Parameters
+    ----------
+    comm
+        The run's communicator (collective).
+    path
+        The ``.bp`` directory (replaced if it exists).
+    u
+        The displacement, a vector P2 function of the output mesh (:meth:`Discretization.output_function`).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    """
+    _unavailable_logged = False
+
+    def __init__(self, comm: MPI.Comm, path: pathlib.Path, u):
+        import dolfinx.fem
+        self.path = path
+        self.writer = None
+        if not _compat.has_vtx():
+            if not VTXSeries._unavailable_logged and comm.rank == 0:
+                log.info(f"no VTX series ({path.name}): DOLFINx {_compat.DOLFINX_VERSION} was built without "
+                         "ADIOS2 (dolfinx.io.VTXWriter); the XDMF series has the same fields")
+            VTXSeries._unavailable_logged = True
+            return
+        self.pressure = dolfinx.fem.Function(_compat.scalar_function_space(u.function_space.mesh, 2),
+                                             name=PRESSURE_FIELD)
+        self.writer = _compat.vtx_writer(comm, path, [u, self.pressure])
+
+    def write(self, load: float, pressure) -> None:
+        """Append a step at load factor ``load`` (the current ``u``; ``pressure`` the degree-1
+        :attr:`PressureField.function`). Collective."""
+        if self.writer is None:
+            return
+        self.pressure.interpolate(pressure)
+        self.writer.write(load)
+
+    def close(self) -> None:
+        """Close the directory (its steps stay readable; collective)."""
+        if self.writer is not None:
+            self.writer.close()
+            self.writer = None
+
+
 def _first_bytes(path: pathlib.Path, n: int) -> bytes:
     with open(path, "rb") as f:
         return f.read(n)
@@ -221,22 +277,41 @@ class RunWriter:
         comm.barrier()
         self.meshes = 0                    # refinements during the run (:meth:`new_mesh`)
         self.xdmf_path = self.out / "displacement.xdmf"
+        self.append = append
+        self.vtx: VTXSeries | None = None
         self.new_mesh(disc, x)
         self.xdmf_started = append and self._readable_xdmf()
 
     def new_mesh(self, disc: Discretization, x: PETSc.Vec) -> None:
         """Output functions on the discretization ``disc`` with state ``x``; after a refinement
         during the run the displacement series goes on in ``displacement_refined<k>.xdmf``,
-        k = 1, 2, ... (one XDMF file per mesh)."""
+        k = 1, 2, ... (one XDMF file per mesh), and the VTX series likewise (:meth:`_vtx_path`)."""
         import dolfinx.fem
         self.disc, self.x = disc, x
-        self.u_p2 = None
+        self.u_p2 = disc.output_function(x)
         self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(disc.dolfinx_mesh, 1), name="u")
         self.pressure = PressureField(disc.dolfinx_mesh)
         if self.meshes:
             self.xdmf_path = self.out / f"displacement_refined{self.meshes}.xdmf"
+        if self.vtx is not None:
+            self.vtx.close()
+        self.vtx = VTXSeries(self.comm, self._vtx_path(resumed=self.append and not self.meshes), self.u_p2)
         self.meshes += 1
         self.xdmf_started = False
+
+    def _vtx_path(self, resumed: bool) -> pathlib.Path:
+        """The VTX directory beside the XDMF file: ``displacement.bp`` (``displacement_refined<k>.bp``
+        after a refinement); a resumed run cannot append to the stopped run's series (DOLFINx's
+        writer only creates) and starts ``displacement_resumed<n>.bp``, n = 1, 2, ... the first
+        that does not exist."""
+        path = self.xdmf_path.with_suffix(".bp")
+        if resumed:
+            n = None
+            if self.comm.rank == 0:
+                n = next(k for k in itertools.count(1)
+                         if not path.with_name(f"{path.stem}_resumed{k}.bp").exists())
+            path = path.with_name(f"{path.stem}_resumed{self.comm.bcast(n, root=0)}.bp")
+        return path
 
     def _readable_xdmf(self) -> bool:
         """Whether an earlier run left a complete XDMF/HDF5 pair to append to; a pair a killed
@@ -265,8 +340,8 @@ class RunWriter:
         self.xdmf_started = True
 
     def step(self, records: list[dict], wall: float, pressure: ContactPressure, surface=None) -> None:
-        """Write the converged step ``records[-1]``: XDMF (the displacement and ``pressure``'s nodal
-        contact pressure, :data:`PRESSURE_FIELD`), checkpoint, a summary marked running
+        """Write the converged step ``records[-1]``: XDMF and VTX (the displacement and ``pressure``'s
+        nodal contact pressure, :data:`PRESSURE_FIELD`), checkpoint, a summary marked running
         with the wall time so far (``wall`` [s], kept by a resumed run), load_path.csv, and the
         pictures of the contact pressure (:meth:`_pictures`; ``surface`` the problem's contact
         checks) if the step reaches one of the load factors of ``pressure_at``."""
@@ -281,6 +356,7 @@ class RunWriter:
         self.u_p1.interpolate(self.u_p2)
         self.pressure.set(pressure)
         self._write_xdmf(records[-1]["load"])
+        self.vtx.write(records[-1]["load"], self.pressure.function)
         partial = self.summary(records, wall, False, RUNNING)
         keys, values = self._gathered(self.x)
         previous = {} if self.control.previous is None else {"previous": self._gathered(self.control.previous)[1]}
@@ -302,7 +378,8 @@ class RunWriter:
     def finish(self, summary: dict, u: np.ndarray | None, pressure: ContactPressure, surface=None) -> None:
         """Write the final summary.json and load_path.csv and the pictures of the last state
         (``u`` the displacements of the output mesh's points on rank 0, ``pressure`` the contact
-        pressure, at the nodes of ``surface``, the problem's contact checks)."""
+        pressure, at the nodes of ``surface``, the problem's contact checks) and close the VTX series."""
+        self.vtx.close()
         if self.comm.rank == 0:
             post.write_json(self.out / "summary.json", summary)
             post.write_load_path_csv(self.out / "load_path.csv", summary["steps"])

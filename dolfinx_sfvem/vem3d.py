@@ -288,6 +288,8 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         return self.space.polyhedron_mesh.tags[self.space.cell_polyhedron]
 
     quadrature_degree = HOST_QUADRATURE_DEGREE
+    #: each face's own projected trace on the load space: not continuous across the faces' edges
+    continuous_face_traces = False
 
     @property
     def _trace(self) -> scipy.sparse.csr_matrix:
