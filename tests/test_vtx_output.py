@@ -42,11 +42,11 @@ def bp_point_fields(path: pathlib.Path) -> list[str]:
 
 
 @needs_vtx
-@pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
-def test_3d_run_writes_the_vtx_series(box_grid, cell, tmp_path):
-    """Two converged steps of a 3D run: displacement.bp holds steps 1 and 2 with u and the contact
-    pressure, as displacement.xdmf does."""
-    problem = sandwich(box_grid, cell)
+@pytest.mark.parametrize("cell, method", [("hexahedron", "fem"), ("tetrahedron", "fem"), ("hexahedron", "vem")])
+def test_3d_run_writes_the_vtx_series(box_grid, cell, method, tmp_path):
+    """Two converged steps of a 3D run (the SFVEM: on its fan mesh): displacement.bp holds steps 1
+    and 2 with u and the contact pressure, as displacement.xdmf does."""
+    problem = sandwich(box_grid, cell, method=method)
     tmp = problem.comm.bcast(tmp_path if problem.comm.rank == 0 else None)
     assert problem.solve(steps=2, out=tmp).converged
     bp = tmp / "displacement.bp"
