@@ -82,7 +82,7 @@ def launch(config: Config, out: pathlib.Path) -> dict | None:
         proc = subprocess.Popen(command(config, out), stdout=log, stderr=subprocess.STDOUT,
                                 env=mpi_launcher.job_environment(OMP_NUM_THREADS="1"))
         try:
-            code = proc.wait()
+            proc.wait()
         except KeyboardInterrupt:
             proc.send_signal(signal.SIGTERM)
             proc.wait()

@@ -145,7 +145,7 @@ def markdown(records: typing.Sequence[dict], machine: dict) -> str:
     per_ls: dict[str, list[float]] = {}
     for r in records:
         per_ls.setdefault(r["line_search"], []).append(residuals_per_iteration(r)["snes"])
-    notes = [f"- residuals per Newton iteration (SNES), mean over the runs: "
+    notes = ["- residuals per Newton iteration (SNES), mean over the runs: "
              + ", ".join(f"`{ls}` {sum(v) / len(v):.2f}" for ls, v in per_ls.items()),
              "- residuals/it: the residuals SNES evaluates (Newton + line search) per Newton iteration; "
              "the final diagnostics and the reactions of a converged state reuse SNES's last one",

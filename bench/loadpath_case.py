@@ -41,7 +41,6 @@ import typing  # noqa: E402
 _BENCH = pathlib.Path(__file__).resolve().parent
 sys.path[:0] = [str(_BENCH), str(_BENCH.parent / "demos"), str(_BENCH.parent)]
 
-import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 

@@ -187,7 +187,6 @@ def main() -> int:
     before = problem.point_displacements()
     worst = _keep_worst_trial(newton)
     result = newton.solve(problem.x, mine.target * constraints.final, mine.target)
-    end = problem.x.copy()
     if mine.worst_trial and worst["x"] is not None:
         worst["x"].copy(problem.x)
         problem.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

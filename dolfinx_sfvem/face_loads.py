@@ -28,7 +28,6 @@ Forms are integrated with the discretization's quadrature degree (exact for the 
 """
 from __future__ import annotations
 
-import typing
 
 import numpy as np
 import ufl

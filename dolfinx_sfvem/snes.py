@@ -253,7 +253,6 @@ def node_spacing(disc: Discretization) -> float:
     ``||K||_inf h`` per row, however small the displacement (module docstring).
     """
     X = disc.x_nodes[:disc.n_owned_nodes]
-    dim = disc.x_nodes.shape[1]
     low, high = X.min(axis=0, initial=np.inf), X.max(axis=0, initial=-np.inf)
     disc.comm.Allreduce(MPI.IN_PLACE, low, op=MPI.MIN)      # elementwise (the pickled allreduce of arrays
     disc.comm.Allreduce(MPI.IN_PLACE, high, op=MPI.MAX)     # compares them as wholes and fails on 2 ranks)

@@ -37,7 +37,7 @@ from .discretization import AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materi
 from .enclosed_volume import EnclosedVolume
 from .energy import Energy, VolumeWork
 from .polygon_mesh import edge_key
-from .polyhedral_space import CELL, FACE, MIDPOINT, VERTEX, PolyhedralSpace, _TET_EDGES
+from .polyhedral_space import FACE, VERTEX, PolyhedralSpace, _TET_EDGES
 from .polyhedron import energy_quadrature
 from .polyhedron_loops import (PolyhedronTables, basis_tables, deformation_at, load_loop, projected_fields,
                                residual_loop, tangent_loop)
@@ -352,7 +352,6 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         """The partition-independent key of every local host node: its fan point for the P2 nodes at
         the fan mesh's points, ``n + edge_key(a, b)`` for the edge nodes (n fan points)."""
         mesh, V = self.space.mesh, self.space.V
-        n = self.space.fan.nodes.shape[0]
         im = V.dofmap.index_map
         dofs = _compat.cell_dofs(V)
         inp = _compat.input_node_index(mesh)[_compat.cell_geometry_nodes(mesh)]
@@ -360,7 +359,6 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         self.host_key[dofs[:, :4]] = inp
         self.host_key[dofs[:, 4:]] = self.midpoint_keys(inp[:, _TET_EDGES[:, 0]], inp[:, _TET_EDGES[:, 1]])
         self._n_owned_host = im.size_local
-        self._host_point = np.where(self.host_key < n, self.host_key, -1)
 
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Host node keys (:meth:`output_state`) of the midpoints of the edges between the

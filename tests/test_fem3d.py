@@ -3,7 +3,6 @@ node keys, a homogeneous deformation's energy and internal forces (exact answers
 import numpy as np
 import pytest
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.cell_mesh import CellMesh

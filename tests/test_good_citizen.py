@@ -138,7 +138,6 @@ def test_without_a_handler_the_library_prints_and_verbose_false_prints_nothing(c
 def test_a_cold_compiler_cache_prints_nothing(tmp_path):
     """A run whose forms and elements are not compiled yet (an empty cache) prints the progress
     and nothing of the compilers: no setuptools/cffi records reach the console."""
-    import os
     import subprocess
     env = job_environment(XDG_CACHE_HOME=str(tmp_path / "cache"), OMP_NUM_THREADS="1")
     cmd = [sys.executable, str(ROOT / "demos" / "cbox.py"), "--method", "fem", "--h", "0.1", "--steps", "1",
