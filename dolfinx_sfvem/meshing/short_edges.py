@@ -123,7 +123,7 @@ def _renumber(faces: _Faces, label) -> _Faces:
     sizes = np.bincount(owner, minlength=faces.offsets.size - 1)
     alive = sizes >= 3
     number = np.cumsum(alive) - 1
-    vertices, owner = vertices[keep], owner
+    vertices = vertices[keep]
     entries = alive[owner]
     pinched = np.unique(np.column_stack([owner[entries], vertices[entries]]), axis=0).shape[0] != entries.sum()
     if pinched:
@@ -175,9 +175,9 @@ def _flatten(points, polygon: list, off: list) -> list:
 
 
 def _flatten_faces(points, faces: _Faces) -> _Faces:
-    """Every face planar: split where a vertex lies off its plane (step 3, :func:`_flatten`). The
-    first piece keeps the face's index and plane, the others are appended, in the cells of their face
-    with its sign."""
+    """Every face planar: the faces with a vertex off their plane replaced by their flat pieces
+    (step 3, :func:`_flatten`), appended after the other faces, in the cells of their face with
+    its sign."""
     owner = segment_owner(faces.offsets)
     x = points[faces.vertices]
     distance = np.abs(np.einsum("ij,ij->i", x, faces.normals[owner]) - faces.levels[owner])
@@ -187,30 +187,29 @@ def _flatten_faces(points, faces: _Faces) -> _Faces:
     bent = np.flatnonzero((np.bincount(owner, weights=off, minlength=sizes.size) > 0) & (sizes > 3))
     if bent.size == 0:
         return faces
-    polygons = [faces.vertices[s:e] for s, e in zip(faces.offsets[:-1], faces.offsets[1:])]
-    normals, levels = faces.normals.copy(), faces.levels.copy()
     pieces, parents = [], []
     for f in bent:
         s, e = faces.offsets[f], faces.offsets[f + 1]
         flat = _flatten(points, faces.vertices[s:e].tolist(), off[s:e].tolist())
-        polygons[f] = np.asarray(flat[0], dtype=np.int64)
-        normals[f], levels[f] = _plane(points, flat[0])
-        pieces += flat[1:]
-        parents += [f] * (len(flat) - 1)
-    parents = np.asarray(parents, dtype=np.int64)
-    planes = [_plane(points, p) for p in pieces]
-    normals = np.vstack([normals, [n for n, _ in planes]])
-    levels = np.concatenate([levels, [c for _, c in planes]])
-    all_sizes = np.concatenate([[len(p) for p in polygons], [len(p) for p in pieces]])
-    # the pieces in the cells of their parent face
-    entry_of = [np.flatnonzero(faces.face == f) for f in parents]
-    entries = np.concatenate(entry_of)
-    new_face = np.repeat(sizes.size + np.arange(len(pieces)), [e.size for e in entry_of])
-    return _Faces(np.concatenate([[0], np.cumsum(all_sizes)]).astype(np.int64),
-                  np.concatenate(polygons + [np.asarray(p, dtype=np.int64) for p in pieces]),
-                  normals, levels,
-                  np.concatenate([faces.cell, faces.cell[entries]]), np.concatenate([faces.face, new_face]),
-                  np.concatenate([faces.sign, faces.sign[entries]]))
+        pieces += flat
+        parents += [f] * len(flat)
+    planes = [_plane(points, piece) for piece in pieces]
+    kept = np.ones(sizes.size, dtype=bool)
+    kept[bent] = False
+    number = np.cumsum(kept) - 1
+    # the cells' entries of the kept faces renumbered, those of a bent face once per piece
+    order = np.argsort(faces.face, kind="stable")
+    start = np.searchsorted(faces.face[order], parents, "left")
+    count = np.searchsorted(faces.face[order], parents, "right") - start
+    entries = order[concatenated_ranges(start, count)]
+    stays = kept[faces.face]
+    return _Faces(np.concatenate([[0], np.cumsum(np.concatenate([sizes[kept], [len(p) for p in pieces]]))]),
+                  np.concatenate([faces.vertices[kept[owner]], np.concatenate(pieces)]).astype(np.int64),
+                  np.vstack([faces.normals[kept], [n for n, _ in planes]]),
+                  np.concatenate([faces.levels[kept], [c for _, c in planes]]),
+                  np.concatenate([faces.cell[stays], faces.cell[entries]]),
+                  np.concatenate([number[faces.face[stays]], np.repeat(kept.sum() + np.arange(len(pieces)), count)]),
+                  np.concatenate([faces.sign[stays], faces.sign[entries]]))
 
 
 def _merge_duplicates(faces: _Faces) -> _Faces:
