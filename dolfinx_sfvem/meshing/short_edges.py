@@ -29,6 +29,8 @@ box's planes are compared exactly (the caller puts them on the planes).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numba
 import numpy as np
 import numpy.typing as npt
@@ -72,15 +74,21 @@ def _next_in_face(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     return nxt
 
 
+@dataclass
 class _Faces:
-    """Faces (CSR of point indices) with the plane of each (unit normal, offset n . x), the cells'
-    (cell, face, sign) entries."""
+    """The faces (CSR of point indices, cyclic), the plane of each (unit normal (n_faces, 3), offset
+    n . x (n_faces,)), and the cells' faces as (cell, face, sign) entries (k,) each."""
 
-    def __init__(self, offsets, vertices, normals, levels, cell, face, sign):
-        self.offsets, self.vertices, self.normals, self.levels = offsets, vertices, normals, levels
-        self.cell, self.face, self.sign = cell, face, sign
+    offsets: np.ndarray
+    vertices: np.ndarray
+    normals: np.ndarray
+    levels: np.ndarray
+    cell: np.ndarray
+    face: np.ndarray
+    sign: np.ndarray
 
     def cell_csr(self, n_cells: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cell offsets (n_cells + 1,), cell faces and signs in PolyhedronMesh's form."""
         order = np.lexsort((self.face, self.cell))
         offsets = np.concatenate([[0], np.cumsum(np.bincount(self.cell, minlength=n_cells))]).astype(np.int64)
         return offsets, self.face[order], self.sign[order]
