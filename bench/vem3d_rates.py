@@ -87,8 +87,9 @@ def voronoi(n: int) -> PolyhedronMesh:
     The shift keeps the box's planes 1/(8n) away from the lattice's Voronoi vertices (unshifted, they
     lie on them, and the perturbation makes edges of 1e-4 of the cell size there); not a perturbed
     simple cubic lattice, where 8 seeds are nearly cospherical around every lattice point: on the
-    short edges and small faces of both the element fails (docs/notes/2026-11-26-sfvem-3d-rates.md,
-    :func:`voronoi_cubic`)."""
+    short edges and small faces of both the element failed (docs/notes/2026-11-26-sfvem-3d-rates.md,
+    :func:`voronoi_cubic`) until voronoi_box collapsed the edges shorter than 1e-2 of their cell
+    (docs/notes/2026-11-26-voronoi-short-edges.md)."""
     rng = np.random.default_rng(31)
     seeds = np.concatenate([_lattice(n), _lattice(n - 1) * (n - 1) / n + 0.5 / n]) + 0.125 / n
     return meshes.voronoi_box(seeds + rng.uniform(-0.05, 0.05, seeds.shape) / n, [0, 0, 0], [1, 1, 1])
@@ -96,14 +97,15 @@ def voronoi(n: int) -> PolyhedronMesh:
 
 def voronoi_cubic(n: int) -> PolyhedronMesh:
     """Voronoi cells of a perturbed simple cubic n^3 lattice (each seed moved by up to 0.3 spacings per
-    axis, fixed rng): short edges and small faces occur."""
+    axis, fixed rng): short edges and small faces occur (collapsed by voronoi_box)."""
     rng = np.random.default_rng(31)
     seeds = _lattice(n)
     return meshes.voronoi_box(seeds + rng.uniform(-0.3, 0.3, seeds.shape) / n, [0, 0, 0], [1, 1, 1])
 
 
 def voronoi_random(n: int) -> PolyhedronMesh:
-    """Voronoi cells of n^3 uniformly random seeds (fixed rng): tiny edges and faces occur."""
+    """Voronoi cells of n^3 uniformly random seeds (fixed rng): tiny edges and faces occur (collapsed
+    by voronoi_box)."""
     rng = np.random.default_rng(31)
     return meshes.voronoi_box(rng.uniform(0.0, 1.0, (n ** 3, 3)), [0, 0, 0], [1, 1, 1])
 

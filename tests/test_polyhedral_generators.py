@@ -59,7 +59,7 @@ def test_extrude_polygons_errors():
 def test_voronoi_cells_are_convex_fill_the_box_and_are_voronoi(clustered):
     """40 uniform seeds in a 2 x 1 x 1 box, or 300 seeds in a corner of a 4 x 2 x 2 box and 2 far from
     its faces (their cells reach the faces from farther than three mean spacings: voronoi_box must
-    mirror more seeds than at first)."""
+    mirror more seeds than at first); no collapse of short edges (min_edge=0: the exact cells)."""
     rng = np.random.default_rng(7)
     if clustered:
         lower, upper = np.array([0.0, 0.0, 0.0]), np.array([4.0, 2.0, 2.0])
@@ -67,7 +67,7 @@ def test_voronoi_cells_are_convex_fill_the_box_and_are_voronoi(clustered):
     else:
         lower, upper = np.array([0.0, 0.0, 0.0]), np.array([2.0, 1.0, 1.0])
         seeds = rng.random((40, 3)) * upper
-    mesh = voronoi_box(seeds, lower, upper)
+    mesh = voronoi_box(seeds, lower, upper, min_edge=0.0)
     size = upper - lower
     assert mesh.n_cells == seeds.shape[0] and mesh.volumes.sum() == pytest.approx(np.prod(size), rel=1e-12)
     on_box = np.isclose(mesh.face_centroids, lower).any(axis=1) | np.isclose(mesh.face_centroids, upper).any(axis=1)
