@@ -15,12 +15,19 @@ COARSE = ["--n", "20", "1", "7", "--cell", "tetrahedron", "--scale", "0.05", "--
           "--regularization", "huhu"]
 
 
-def reactions(comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, list[float]]:
-    """The reactions after the coarse run on ``comm`` (no output directory)."""
-    args = cbox3d.common.parse_args(cbox3d.make_parser(), COARSE)
+def coarse_run(comm: MPI.Comm = MPI.COMM_WORLD, extra: tuple[str, ...] = ()) -> tuple[dict[str, list[float]], dict]:
+    """The reactions and the last step's record after the coarse run on ``comm`` with the options
+    ``extra`` (no output directory)."""
+    args = cbox3d.common.parse_args(cbox3d.make_parser(), COARSE + list(extra))
     problem, _ = cbox3d.build(args, comm)
-    assert problem.solve(control=cbox3d.common.load_stepping(args)).converged
-    return problem.reactions()
+    result = problem.solve(control=cbox3d.common.load_stepping(args))
+    assert result.converged
+    return problem.reactions(), result.steps[-1]
+
+
+def reactions(comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, list[float]]:
+    """The reactions after the coarse run on ``comm``."""
+    return coarse_run(comm)[0]
 
 
 def test_reactions_balance():
@@ -30,6 +37,16 @@ def test_reactions_balance():
     load, clamp = np.array(r["load"]), np.array(r["clamp"])
     assert load[2] < 0.0                   # the internal force of the structure pushed down
     assert np.allclose(load + clamp, 0.0, atol=1e-6 * np.linalg.norm(load))
+
+
+def test_iterative_solver_same_reactions():
+    """--linear-solver iterative (GMRES + p-multigrid) reaches the direct solver's state: both
+    Newton iterations end at the tolerance, so the reactions agree far below the load's size. The
+    iterative run did not factorize the tangent: no negative-pivot count (LDL^T's) in its record."""
+    (direct, direct_step), (iterative, iterative_step) = coarse_run(), coarse_run(extra=("--linear-solver", "iterative"))
+    assert direct_step["negative_pivots"] is not None and iterative_step["negative_pivots"] is None
+    for name in direct:
+        assert np.allclose(iterative[name], direct[name], rtol=0.0, atol=1e-6 * np.abs(direct[name]).max())
 
 
 def test_sfvem_refused():
