@@ -17,11 +17,15 @@ Measured (times of collective work: the largest over the ranks):
 
 - ``newton_iterations`` (failed attempts included) and, per Newton solve, the Krylov iterations
   (``SNESGetLinearSolveIterations``; 1 per Newton iteration for the direct solver);
-- ``assembly_s``: the tangent assemblies and the residuals that SNES asks for (Newton and line
-  search), by wrapping them (``loadpath_case.patch_load_path``);
-- ``linear_s`` and ``setup_s``: PETSc's events KSPSetUp + PCSetUp + KSPSolve, and PCSetUp alone
-  (the MUMPS factorization of the tangent, or of the coarse level with the multigrid set-up);
-- ``path_s``: the whole load path (also the contact checks after each converged step);
+- ``assembly_s``: the tangent assemblies and every residual (those SNES asks for, Newton and line
+  search, and the step's diagnostics), by wrapping them (``loadpath_case.patch_load_path``);
+- ``path_s``: the whole load path; ``linear_s``: what of it is not assembly, contact check
+  (``gap``) or reactions: the linear solves and SNES's own vector work. (PETSc's events of the
+  linear solve nest with the multigrid: its smoothers' and coarse level's KSPSolve and PCSetUp
+  count again inside the outer ones, so their sum is no time);
+- ``factorization_s``: the MUMPS Cholesky factorizations, symbolic and numeric (events
+  MatCholFctrSym + MatCholFctrNum; of the tangent, or of the multigrid's coarse level), and
+  ``events_s``, the PETSc events of :data:`EVENTS` (summed over nested calls);
 - ``peak_rss_mb``: each rank's peak resident set size (``getrusage``), after the build
   (``built_rss_mb``) and at the end.
 
@@ -48,8 +52,11 @@ import dolfinx_sfvem.snes  # noqa: E402
 
 import cbox3d  # noqa: E402
 import instrument  # noqa: E402
+from cbox3d_sizes import assembly_s, linear_s  # noqa: E402
 from loadpath_case import LINEAR_SOLVE_EVENTS, patch_load_path  # noqa: E402
 
+#: PETSc events recorded (module docstring)
+EVENTS = (*LINEAR_SOLVE_EVENTS, "MatCholFctrSym", "MatCholFctrNum", "MatPtAP")
 #: the grid of the warm-up: the coarsest with grid lines on the C's walls
 WARM_UP_GRID = ("20", "1", "7")
 
@@ -93,7 +100,7 @@ def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Seq
     build_s = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     built_rss = comm.allgather(instrument.peak_rss_mb())
     PETSc.Log.begin()
-    before = instrument.petsc_event_times(LINEAR_SOLVE_EVENTS)
+    before = instrument.petsc_event_times(EVENTS)
     solves: list[tuple[int, int]] = []
     restore = count_krylov(solves)
     try:
@@ -105,8 +112,8 @@ def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Seq
             path_s = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     finally:
         restore()
-    after = instrument.petsc_event_times(LINEAR_SOLVE_EVENTS)
-    linear = {k: comm.allreduce(after[k] - before[k], op=MPI.MAX) for k in after}
+    after = instrument.petsc_event_times(EVENTS)
+    events = {k: comm.allreduce(after[k] - before[k], op=MPI.MAX) for k in after}
     wall = {k: v["wall"] for k, v in instrument.stages_over_ranks(timer.times, comm).items()}
     last = result.steps[-1] if result.steps else {}
     return {"grid": "x".join(grid), "solver": solver, "ranks": comm.size, "gamma": args.gamma, "until": until,
@@ -115,8 +122,8 @@ def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Seq
             "attempts": len(result.attempts),
             "newton_iterations": int(sum(a["newton_iterations"] for a in result.attempts)),
             "solves": solves, "build_s": build_s, "path_s": path_s,
-            "assembly_s": wall.get("tangent", 0.0) + wall.get("residual_snes", 0.0), "stages_s": wall,
-            "linear_s": sum(linear.values()), "setup_s": linear["PCSetUp"],
+            "assembly_s": assembly_s(wall), "stages_s": wall, "linear_s": linear_s(path_s, wall),
+            "factorization_s": events["MatCholFctrSym"] + events["MatCholFctrNum"], "events_s": events,
             "reaction": last.get("reaction", {}).get("load"), "gap": (last.get("gap") or {}).get("value"),
             "negative_pivots": last.get("negative_pivots"),
             "built_rss_mb": built_rss, "peak_rss_mb": comm.allgather(instrument.peak_rss_mb()),
