@@ -88,14 +88,15 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
              "(0, 0.0125, -0.05)), Q2 hexahedra, gamma 1e-6, rotation regularization with alpha_r = 10, from the "
              f"reference state; {machine}. Newton: iterations of the step (failed attempts included); Krylov: "
              "GMRES iterations per Newton iteration (mean, and the largest Newton solve's mean); per it.: the "
-             "load path's wall time per Newton iteration, of it assembly (tangent and every residual) and "
+             "load path's wall time per Newton iteration (CPU: its CPU time, largest rank: the wall time on cores "
+             "the run has to itself), of it assembly (tangent and every residual) and "
              "linear solve (the rest but the contact check and reactions); factor.: of that the MUMPS Cholesky "
              "factorizations (the tangent's, or the multigrid's coarse level's); vs smallest: per-iteration time over that of the smallest grid with the same "
              "ranks and solver; it./dir.: iterative over direct at the same grid and ranks; peak MB: the "
              "largest resident set of one rank, and the sum over the ranks. Compare rows of one run.", "",
-             "| grid | unknowns | ranks | solver | Newton | Krylov per it. | s per it. | assembly s/it. | "
+             "| grid | unknowns | ranks | solver | Newton | Krylov per it. | s per it. | CPU s per it. | assembly s/it. | "
              "linear s/it. | factor. s/it. | vs smallest | it./dir. | peak MB (rank) | peak MB (sum) |",
-             "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in sorted(records, key=lambda r: (r["unknowns"], r["ranks"], r["solver"])):
         n = max(r["newton_iterations"], 1)
         krylov = "-"
@@ -107,8 +108,9 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
         versus = f"{per_iteration(r) / per_iteration(direct):.2f}" if r["solver"] == "iterative" and direct else "-"
         newton = f"{r['newton_iterations']}" + ("" if r["converged"] else " (not converged)")
         factor = "-" if factorization_s(r) is None else f"{factorization_s(r) / n:.1f}"
+        cpu = f"{r['path_cpu_s'] / n:.1f}" if "path_cpu_s" in r else "-"
         lines.append(f"| {r['grid']} | {r['unknowns']:,} | {r['ranks']} | {r['solver']} | {newton} | {krylov} | "
-                     f"{per_iteration(r):.1f} | {assembly_s(r['stages_s']) / n:.1f} | "
+                     f"{per_iteration(r):.1f} | {cpu} | {assembly_s(r['stages_s']) / n:.1f} | "
                      f"{linear_s(r['path_s'], r['stages_s']) / n:.1f} | {factor} | {ratio:.1f} | {versus} | "
                      f"{max(r['peak_rss_mb']):.0f} | "
                      f"{sum(r['peak_rss_mb']):.0f} |")

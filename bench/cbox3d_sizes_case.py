@@ -19,7 +19,8 @@ Measured (times of collective work: the largest over the ranks):
   (``SNESGetLinearSolveIterations``; 1 per Newton iteration for the direct solver);
 - ``assembly_s``: the tangent assemblies and every residual (those SNES asks for, Newton and line
   search, and the step's diagnostics), by wrapping them (``loadpath_case.patch_load_path``);
-- ``path_s``: the whole load path; ``linear_s``: what of it is not assembly, contact check
+- ``path_s``: the whole load path (``path_cpu_s``: its CPU time, the largest over the ranks: what
+  the wall time would be on a machine whose cores the run has to itself); ``linear_s``: what of it is not assembly, contact check
   (``gap``) or reactions: the linear solves and SNES's own vector work. (PETSc's events of the
   linear solve nest with the multigrid: its smoothers' and coarse level's KSPSolve and PCSetUp
   count again inside the outer ones, so their sum is no time);
@@ -107,9 +108,10 @@ def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Seq
         with instrument.StageTimer() as timer:
             patch_load_path(timer, problem.disc)
             comm.barrier()
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             result = problem.solve(control=cbox3d.common.load_stepping(args), until=until)
             path_s = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+            path_cpu_s = comm.allreduce(time.process_time() - c0, op=MPI.MAX)
     finally:
         restore()
     after = instrument.petsc_event_times(EVENTS)
@@ -121,7 +123,7 @@ def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Seq
             "converged": bool(result.converged), "load": float(result.load), "steps": len(result.steps),
             "attempts": len(result.attempts),
             "newton_iterations": int(sum(a["newton_iterations"] for a in result.attempts)),
-            "solves": solves, "build_s": build_s, "path_s": path_s,
+            "solves": solves, "build_s": build_s, "path_s": path_s, "path_cpu_s": path_cpu_s,
             "assembly_s": assembly_s(wall), "stages_s": wall, "linear_s": linear_s(path_s, wall),
             "factorization_s": events["MatCholFctrSym"] + events["MatCholFctrNum"], "events_s": events,
             "reaction": last.get("reaction", {}).get("load"), "gap": (last.get("gap") or {}).get("value"),
