@@ -64,10 +64,11 @@ def linear_s(path_s: float, stages: dict[str, float]) -> float:
 
 
 def factorization_s(r: dict) -> float | None:
-    """The MUMPS factorizations' time of a case (s; None for a multigrid case measured before it was recorded)."""
-    if "factorization_s" in r:
-        return r["factorization_s"]
-    return r["setup_s"] if r["solver"] == "direct" else None    # PCSetUp: the factorization alone there
+    """The direct solver's factorizations (s; PETSc's PCSetUp, disjoint from its KSPSolve there; the
+    multigrid's events nest, None)."""
+    if r["solver"] != "direct":
+        return None
+    return r["events_s"]["PCSetUp"] if "events_s" in r else r["setup_s"]
 
 
 def per_iteration(r: dict) -> float:
@@ -90,8 +91,8 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
              "GMRES iterations per Newton iteration (mean, and the largest Newton solve's mean); per it.: the "
              "load path's wall time per Newton iteration (CPU: its CPU time, largest rank: the wall time on cores "
              "the run has to itself), of it assembly (tangent and every residual) and "
-             "linear solve (the rest but the contact check and reactions); factor.: of that the MUMPS Cholesky "
-             "factorizations (the tangent's, or the multigrid's coarse level's); vs smallest: per-iteration time over that of the smallest grid with the same "
+             "linear solve (the rest but the contact check and reactions); factor.: of that the MUMPS LDL^T "
+             "factorizations of the direct solver; vs smallest: per-iteration time over that of the smallest grid with the same "
              "ranks and solver; it./dir.: iterative over direct at the same grid and ranks; peak MB: the "
              "largest resident set of one rank, and the sum over the ranks. Compare rows of one run.", "",
              "| grid | unknowns | ranks | solver | Newton | Krylov per it. | s per it. | CPU s per it. | assembly s/it. | "
