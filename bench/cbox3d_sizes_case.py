@@ -19,11 +19,11 @@ Measured (times of collective work: the largest over the ranks):
   (``SNESGetLinearSolveIterations``; 1 per Newton iteration for the direct solver);
 - ``assembly_s``: the tangent assemblies and every residual (those SNES asks for, Newton and line
   search, and the step's diagnostics), by wrapping them (``loadpath_case.patch_load_path``);
-- ``path_s``: the whole load path (``path_cpu_s``: its CPU time, the largest over the ranks: what
-  the wall time would be on a machine whose cores the run has to itself); ``linear_s``: what of it is not assembly, contact check
-  (``gap``) or reactions: the linear solves and SNES's own vector work. (PETSc's events of the
-  linear solve nest with the multigrid: its smoothers' and coarse level's KSPSolve and PCSetUp
-  count again inside the outer ones, so their sum is no time);
+- ``path_s``: the whole load path (``path_cpu_s``: its CPU time, the largest over the ranks:
+  what the wall time would be on cores the run has to itself); ``linear_s``: what of it is not
+  assembly, contact check (``gap``) or reactions: the linear solves and SNES's own vector work
+  (PETSc's events of the linear solve nest with the multigrid: its smoothers' and coarse level's
+  KSPSolve and PCSetUp count again inside the outer ones, so their sum is no time);
 - ``events_s``: PETSc's events KSPSetUp, PCSetUp, KSPSolve (summed over nested calls; with the
   direct solver they are disjoint and PCSetUp is the MUMPS factorization);
 - ``peak_rss_mb``: each rank's peak resident set size (``getrusage``), after the build
