@@ -109,12 +109,14 @@ docs: $(STAMP)
 # SFVEM vs P2 FEM up to 1.2e5 unknowns (about 25 min), kept in bench/results.{json,md}; then the
 # load paths of the four paper examples, SFVEM and FEM (about 15 min), kept in bench/loadpath.{json,md};
 # then the time to an answer of equal accuracy (hours at 1 rank; restartable: the same command goes
-# on), kept in bench/accuracy.{json,md}
+# on), kept in bench/accuracy.{json,md}; then the 3D C-box by size, 9 k to 204 k unknowns, 1 and 2
+# ranks, direct and iterative solver (about 1.5 h; restartable), kept in bench/cbox3d_sizes.{json,md}
 bench: $(STAMP)
 	$(PY) bench/run.py --out $(OUT)/bench
 	cp $(OUT)/bench/results.json $(OUT)/bench/results.md bench/
 	$(PY) bench/loadpath.py --out $(OUT)/loadpath --results bench
 	$(PY) bench/accuracy.py --out $(OUT)/accuracy --results bench
+	$(PY) bench/cbox3d_sizes.py --out $(OUT)/cbox3d_sizes --results bench
 
 # the paper's examples with SFVEM and FEM on $(NP) and 1 ranks, then docs/results.md (hours;
 # restartable), then the mesh refinement study, docs/refinement.md (about 1.5 h; restartable).

@@ -27,7 +27,8 @@ auxiliary fields, with weights of order one not scaled by gamma, i.e. a far stif
 regularization than alpha_r = 10). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
 (u_y, u_z) = (0.25, -1.0) ("point contact", ``--contact point``, default) or (0.5, -2.0) ("line
 contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny.
-``--method vem``: the SFVEM on the cells read as polyhedra.
+``--method vem``: the SFVEM on the cells read as polyhedra. ``--linear-solver iterative``
+(GMRES + p-multigrid) for grids beyond about 5e4 unknowns (bench/cbox3d_sizes.md).
 
 What it prints and writes
 -------------------------
@@ -91,6 +92,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.benchmarks3d import CBOX3D_T
+from dolfinx_sfvem.linear_solvers import LINEAR_SOLVERS
 
 import _common as common
 
@@ -105,7 +107,7 @@ N_DEFAULT = (20, 4, 7)
 
 def make_parser() -> argparse.ArgumentParser:
     """The shared demo options with the 3D C-box defaults, plus ``--n --tip-refinement --cell --contact
-    --medium-K --scale``."""
+    --medium-K --scale --linear-solver``."""
     p = common.parser("cbox3d", __doc__, steps=20, meshes=(1,), h=0.1, h_max=CBOX3D_T, gamma=1e-5,
                       alpha_r=10.0, regularization="rotation")
     p.set_defaults(method="fem", h=None)
@@ -125,6 +127,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--load-patch", type=common.positive_float, default=None, metavar="S",
                    help="move the S x S square of the top face at the corner instead of the corner alone "
                         "(a finite reaction under refinement; default: the corner, as dolfiny)")
+    p.add_argument("--linear-solver", choices=tuple(LINEAR_SOLVERS), default="direct",
+                   help="the Newton steps' linear solver: MUMPS LDL^T or GMRES + p-multigrid, for large grids "
+                        "(docs/guide/solving.md; default %(default)s)")
     return p
 
 
@@ -138,7 +143,7 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
     medium = sf.ThirdMedium(mu=MU, K=args.medium_K, gamma=args.gamma, alpha_r=args.alpha_r,
                             regularization=args.regularization, beta=args.beta)
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
-                                comm=comm, **common.discretization(args))
+                                comm=comm, linear_solver=args.linear_solver, **common.discretization(args))
     problem.fix(box.marker("clamp"), name="clamp")
     tip = common.at_point(box.points["load"])
     uy, uz = (args.scale * u for u in CONTACTS[args.contact])

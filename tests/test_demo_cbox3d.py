@@ -22,12 +22,18 @@ def coarse(method: str = "fem") -> list[str]:
     return COARSE[:at] + ["--cell", cell] + COARSE[at + 2:] + ["--method", method]
 
 
-def run(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None):
-    """The converged coarse problem on ``comm`` (no output directory)."""
+def solved(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None):
+    """The converged coarse problem on ``comm`` (no output directory) and its last step's record."""
     args = cbox3d.common.parse_args(cbox3d.make_parser(), argv or coarse())
     problem, _ = cbox3d.build(args, comm)
-    assert problem.solve(control=cbox3d.common.load_stepping(args)).converged
-    return problem
+    result = problem.solve(control=cbox3d.common.load_stepping(args))
+    assert result.converged
+    return problem, result.steps[-1]
+
+
+def run(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None):
+    """The converged coarse problem on ``comm``."""
+    return solved(comm, argv)[0]
 
 
 def reactions(comm: MPI.Comm = MPI.COMM_WORLD, method: str = "fem") -> dict[str, list[float]]:
@@ -57,6 +63,18 @@ def test_sfvem_on_the_hexahedra_follows_q2():
     assert np.allclose(r_vem + np.array(vem.reactions()["clamp"]), 0.0, atol=1e-6 * np.linalg.norm(r_vem))
     assert vem.contact_gap().value > 0.0
     assert np.linalg.norm(r_vem - r_fem) < 0.2 * np.linalg.norm(r_fem)
+
+
+def test_iterative_solver_same_reactions():
+    """--linear-solver iterative (GMRES + p-multigrid) reaches the direct solver's state: both
+    Newton iterations end at the tolerance, so the reactions agree far below the load's size. The
+    iterative run did not factorize the tangent: no negative-pivot count (LDL^T's) in its record."""
+    (direct, direct_step), (iterative, iterative_step) = (solved(argv=coarse() + extra)
+                                                          for extra in ([], ["--linear-solver", "iterative"]))
+    assert direct_step["negative_pivots"] is not None and iterative_step["negative_pivots"] is None
+    direct, iterative = direct.reactions(), iterative.reactions()
+    for name in direct:
+        assert np.allclose(iterative[name], direct[name], rtol=0.0, atol=1e-6 * np.abs(direct[name]).max())
 
 
 @pytest.mark.mpi

@@ -18,7 +18,25 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from test_pressure_output3d import sandwich
+from dolfinx_sfvem.cell_mesh import CellMesh
+
+#: the layers of the stack: lower block, medium, upper block (z)
+LAYERS = (0.0, 0.5, 0.6, 1.1)
+
+
+def pressed_stack(box_grid, cell: str, n: int = 1, comm=MPI.COMM_WORLD, method: str = "fem") -> sf.ContactProblem:
+    """Two blocks on [0, 1]² (n x n cells across) through a medium layer, the bottom held, the top
+    pressed down by 0.02: a 3D run with a contact pressure."""
+    grid = np.linspace(0.0, 1.0, n + 1)
+    arrays = box_grid(grid, grid, LAYERS, lambda c: 1 + (c[2] > LAYERS[1]) + (c[2] > LAYERS[2]), cell)
+    solid = sf.Hyperelastic(K=5 / 3, mu=5 / 14)
+    materials = {1: solid, 2: sf.ThirdMedium(mu=5 / 14, gamma=0.05, alpha_r=1e-3, regularization="huhu"), 3: solid}
+    problem = sf.ContactProblem(CellMesh(arrays.points, arrays.cells, arrays.tags, cell), materials, method=method,
+                                comm=comm, verbose=False)
+    problem.fix(lambda x: np.isclose(x[2], 0.0), name="bottom")
+    problem.prescribe(lambda x: np.isclose(x[2], LAYERS[-1]), uz=-0.02, name="press")
+    return problem
+
 
 needs_vtx = pytest.mark.skipif(not _compat.has_vtx(), reason=f"DOLFINx {_compat.DOLFINX_VERSION} was built without "
                                                                "ADIOS2: no dolfinx.io.VTXWriter, no VTX series")
@@ -46,7 +64,7 @@ def bp_point_fields(path: pathlib.Path) -> list[str]:
 def test_3d_run_writes_the_vtx_series(box_grid, cell, method, tmp_path):
     """Two converged steps of a 3D run (the SFVEM: on its fan mesh): displacement.bp holds steps 1
     and 2 with u and the contact pressure, as displacement.xdmf does."""
-    problem = sandwich(box_grid, cell, method=method)
+    problem = pressed_stack(box_grid, cell, method=method)
     tmp = problem.comm.bcast(tmp_path if problem.comm.rank == 0 else None)
     assert problem.solve(steps=2, out=tmp).converged
     bp = tmp / "displacement.bp"
@@ -92,7 +110,7 @@ def test_without_adios2_the_run_writes_xdmf_alone(tmp_path):
 @pytest.mark.mpi
 def test_vtx_series_on_two_ranks(box_grid, tmp_path):
     """Written collectively: one series with one record per step."""
-    problem = sandwich(box_grid, "hexahedron", n=2, comm=MPI.COMM_WORLD)
+    problem = pressed_stack(box_grid, "hexahedron", n=2, comm=MPI.COMM_WORLD)
     tmp = MPI.COMM_WORLD.bcast(tmp_path if MPI.COMM_WORLD.rank == 0 else None)
     assert problem.solve(steps=2, out=tmp).converged
     MPI.COMM_WORLD.barrier()
