@@ -197,7 +197,7 @@ def solve(load: str, p: float, h: float, args: argparse.Namespace, lame: bool = 
     return compare(problem, RunSummary.from_dict(result.summary), answer_for(load, p, args.gamma, lame))
 
 
-HEADER = ["case", "h", "unknowns", "mean u_r(a) error", "rate", "largest u_r(a) error", "conjugate error", "rate",
+HEADER = ["case", "method", "h", "unknowns", "mean u_r(a) error", "rate", "largest u_r(a) error", "conjugate error", "rate",
           "Newton", "time s"]
 
 
@@ -234,10 +234,10 @@ def study(args: argparse.Namespace) -> int:
         for h in hs:
             t0 = time.perf_counter()
             r = solve(load, SMALL * args.p if lame else args.p, h, args, lame)
-            r.update(case=label, h=h, setup_and_solve_s=time.perf_counter() - t0)
+            r.update(case=label, method=args.method, h=h, setup_and_solve_s=time.perf_counter() - t0)
             rows.append(r)
             if MPI.COMM_WORLD.rank == 0:
-                print(f"{label}, h = {h:g}: {r['unknowns']} unknowns, mean u_r(a) {r['u_r_mean']:+.3e}, largest "
+                print(f"{label}, {args.method}, h = {h:g}: {r['unknowns']} unknowns, mean u_r(a) {r['u_r_mean']:+.3e}, largest "
                       f"{r['u_r_max']:.3e}, conjugate {r['conjugate_error']:+.3e}, "
                       f"{r['setup_and_solve_s']:.0f} s", flush=True)
     if MPI.COMM_WORLD.rank == 0:
@@ -253,26 +253,36 @@ def study_table(rows: list[dict]) -> list[list[str]]:
         unknowns = [r["unknowns"] for r in group]
         u_rate, c_rate = (rates([r[key] for r in group], unknowns) for key in ("u_r_mean", "conjugate_error"))
         for r, ur, cr in zip(group, u_rate, c_rate):
-            table.append([label, f"{r['h']:g}", str(r["unknowns"]), f"{r['u_r_mean']:+.2e}", ur, f"{r['u_r_max']:.2e}",
+            table.append([label, r["method"], f"{r['h']:g}", str(r["unknowns"]), f"{r['u_r_mean']:+.2e}", ur, f"{r['u_r_max']:.2e}",
                           f"{r['conjugate_error']:+.2e}", cr, str(r["newton"]), f"{r['setup_and_solve_s']:.0f}"])
     return table
 
 
+#: what each ``--method`` solves the thick sphere with (the study's title)
+DISCRETIZATIONS = {"fem": "P2 tetrahedra", "vem": "SFVEM, the tetrahedra read as polyhedra"}
+
+
+def study_stem(method: str) -> str:
+    """The study's file names in ``--out`` without suffix: thick-sphere (FEM), thick-sphere-vem (SFVEM)."""
+    return "thick-sphere" if method == "fem" else f"thick-sphere-{method}"
+
+
 def write_study(args: argparse.Namespace, rows: list[dict]) -> None:
-    """thick-sphere.md, thick-sphere.csv and thick-sphere-convergence.png in ``--out``; prints the table."""
-    table = study_table(rows)
-    lines = [f"# Thick sphere (1/8, P2 tetrahedra): refinement study (p = {args.p:g}, "
+    """STEM.md, STEM.csv and STEM-convergence.png in ``--out`` (STEM: :func:`study_stem` of
+    ``--method``); prints the table."""
+    table, stem = study_table(rows), study_stem(args.method)
+    lines = [f"# Thick sphere (1/8, {DISCRETIZATIONS[args.method]}): refinement study (p = {args.p:g}, "
              f"small p = {SMALL * args.p:.3g}, cavity gamma = {args.gamma:g})", "",
              "Errors relative to the exact u_r(a) and conjugate; observed orders between consecutive meshes in the "
              "mean cell size h ~ unknowns^(-1/3).", ""]
     lines += markdown.table(HEADER, table)
-    (args.out / "thick-sphere.md").write_text("\n".join(lines) + "\n")
-    with open(args.out / "thick-sphere.csv", "w", newline="") as f:
+    (args.out / f"{stem}.md").write_text("\n".join(lines) + "\n")
+    with open(args.out / f"{stem}.csv", "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(HEADER)
         writer.writerows(table)
     print("\n".join(lines), flush=True)
-    plot_study(args.out / "thick-sphere-convergence.png", rows)
+    plot_study(args.out / f"{stem}-convergence.png", rows)
 
 
 def plot_study(path: pathlib.Path, rows: list[dict]) -> None:
