@@ -112,7 +112,8 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
     lines += comparison_rows(records)
     lines += ["", "Every case: load reached, steps, smallest det F, and the smallest gap at each converged step "
               "(load: gap).", "",
-              "| grid | method | scale | unknowns | load reached | Newton | min J | gaps |", "|---|---|---:|---:|---:|---:|---:|---|"]
+              "| grid | method | scale | unknowns | load reached | Newton | min J | gaps |",
+              "|---|---|---:|---:|---:|---:|---:|---|"]
     for r in records:
         gaps = ", ".join(f"{load:.3g}: {_number(g, '.4f')}" for load, g in r["gaps"])
         lines.append(f"| {r['grid']} | {r['method']} | {r['scale']:g} | {r['unknowns']} | {r['load']:.3g} | "

@@ -197,8 +197,8 @@ def solve(load: str, p: float, h: float, args: argparse.Namespace, lame: bool = 
     return compare(problem, RunSummary.from_dict(result.summary), answer_for(load, p, args.gamma, lame))
 
 
-HEADER = ["case", "method", "h", "unknowns", "mean u_r(a) error", "rate", "largest u_r(a) error", "conjugate error", "rate",
-          "Newton", "time s"]
+HEADER = ["case", "method", "h", "unknowns", "mean u_r(a) error", "rate", "largest u_r(a) error", "conjugate error",
+          "rate", "Newton", "time s"]
 
 
 def single(args: argparse.Namespace) -> int:
@@ -237,8 +237,8 @@ def study(args: argparse.Namespace) -> int:
             r.update(case=label, method=args.method, h=h, setup_and_solve_s=time.perf_counter() - t0)
             rows.append(r)
             if MPI.COMM_WORLD.rank == 0:
-                print(f"{label}, {args.method}, h = {h:g}: {r['unknowns']} unknowns, mean u_r(a) {r['u_r_mean']:+.3e}, largest "
-                      f"{r['u_r_max']:.3e}, conjugate {r['conjugate_error']:+.3e}, "
+                print(f"{label}, {args.method}, h = {h:g}: {r['unknowns']} unknowns, mean u_r(a) "
+                      f"{r['u_r_mean']:+.3e}, largest {r['u_r_max']:.3e}, conjugate {r['conjugate_error']:+.3e}, "
                       f"{r['setup_and_solve_s']:.0f} s", flush=True)
     if MPI.COMM_WORLD.rank == 0:
         write_study(args, rows)
@@ -253,8 +253,8 @@ def study_table(rows: list[dict]) -> list[list[str]]:
         unknowns = [r["unknowns"] for r in group]
         u_rate, c_rate = (rates([r[key] for r in group], unknowns) for key in ("u_r_mean", "conjugate_error"))
         for r, ur, cr in zip(group, u_rate, c_rate):
-            table.append([label, r["method"], f"{r['h']:g}", str(r["unknowns"]), f"{r['u_r_mean']:+.2e}", ur, f"{r['u_r_max']:.2e}",
-                          f"{r['conjugate_error']:+.2e}", cr, str(r["newton"]), f"{r['setup_and_solve_s']:.0f}"])
+            table.append([label, r["method"], f"{r['h']:g}", str(r["unknowns"]), f"{r['u_r_mean']:+.2e}", ur,
+                          f"{r['u_r_max']:.2e}", f"{r['conjugate_error']:+.2e}", cr, str(r["newton"]), f"{r['setup_and_solve_s']:.0f}"])
     return table
 
 
