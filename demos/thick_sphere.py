@@ -254,7 +254,8 @@ def study_table(rows: list[dict]) -> list[list[str]]:
         u_rate, c_rate = (rates([r[key] for r in group], unknowns) for key in ("u_r_mean", "conjugate_error"))
         for r, ur, cr in zip(group, u_rate, c_rate):
             table.append([label, r["method"], f"{r['h']:g}", str(r["unknowns"]), f"{r['u_r_mean']:+.2e}", ur,
-                          f"{r['u_r_max']:.2e}", f"{r['conjugate_error']:+.2e}", cr, str(r["newton"]), f"{r['setup_and_solve_s']:.0f}"])
+                          f"{r['u_r_max']:.2e}", f"{r['conjugate_error']:+.2e}", cr, str(r["newton"]),
+                          f"{r['setup_and_solve_s']:.0f}"])
     return table
 
 
