@@ -109,10 +109,12 @@ class Benchmark3D:
         return np.flatnonzero(self._surface(name).contains(self.mesh.points, self.tol))
 
     def nodes_on(self, name: str) -> np.ndarray:
-        """Coordinates (k, 3) of the degree-2 nodes on the named surface, sorted: its vertices, the
-        midpoints of the cell edges between two of them, and (hexahedra) the centres of the cell
-        faces whose four corners are on it. On a curved surface the midpoints and centres lie off
-        it (on the flat faces)."""
+        """Coordinates (k, 3) of the nodes on the named surface, sorted: its vertices, the midpoints
+        of the cell edges between two of them, and the centres (vertex means) of the cell faces
+        whose corners are all on it: the degree-2 nodes of P2 and Q2 (a hexahedron's face centre)
+        and the SFVEM's face-mean nodes (at the face centroids: a triangle's or a parallelogram's
+        vertex mean), which a boundary condition on the surface must hold too. On a curved surface
+        the midpoints and centres lie off it (on the flat faces)."""
         mesh = self.mesh
         on = self._surface(name).contains(mesh.points, self.tol)
         edges, faces = _cell_edges_and_faces(mesh)
@@ -122,7 +124,7 @@ class Benchmark3D:
         return np.unique(np.concatenate(nodes), axis=0)
 
     def marker(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
-        """Marker function of the named surface's degree-2 nodes (:meth:`nodes_on`), for the
+        """Marker function of the named surface's nodes (:meth:`nodes_on`), for the
         ``where`` of :class:`~dolfinx_sfvem.ContactProblem`: coordinates (3, n) -> (n,) bool."""
         tree, tol = scipy.spatial.cKDTree(self.nodes_on(name)), self.tol
 
@@ -133,23 +135,20 @@ class Benchmark3D:
         return on_surface
 
 
-#: local vertex pairs of the edges and local vertex quadruples (cyclic) of the faces of each cell type
+#: local vertex pairs of the edges and local vertex triples or quadruples (cyclic) of the faces of each cell type
 _EDGES = {"tetrahedron": [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)],
           "hexahedron": [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7),
                          (0, 4), (1, 5), (2, 6), (3, 7)]}
-_QUAD_FACES = {"tetrahedron": [],
-               "hexahedron": [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]}
+_FACES = {"tetrahedron": [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)],
+          "hexahedron": [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]}
 
 
 def _cell_edges_and_faces(mesh: CellMesh) -> tuple[np.ndarray, np.ndarray]:
-    """Distinct cell edges (e, 2) and quadrilateral faces (f, 4) of the mesh (vertex indices)."""
+    """Distinct cell edges (e, 2) and faces (f, 3) or (f, 4) of the mesh (vertex indices)."""
     edges = np.sort(mesh.cells[:, _EDGES[mesh.cell_type]].reshape(-1, 2), axis=1)
-    faces = mesh.cells[:, _QUAD_FACES[mesh.cell_type]].reshape(-1, 4) if _QUAD_FACES[mesh.cell_type] \
-        else np.empty((0, 4), dtype=np.int64)
-    if faces.size:
-        _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
-        faces = faces[first]
-    return np.unique(edges, axis=0), faces
+    faces = mesh.cells[:, _FACES[mesh.cell_type]].reshape(-1, len(_FACES[mesh.cell_type][0]))
+    _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+    return np.unique(edges, axis=0), faces[first]
 
 
 # --------------------------------------------------------------------------- the 3D C-box
