@@ -16,7 +16,8 @@ grid lines resolve the C's wall: x = 0.1, z = 0.1, z = 0.6).
 Writes ``DIR/cbox3d_vem_fem.json`` (every case, appended as it finishes: an interrupted run keeps
 its cases and a rerun skips them) and ``DIR/cbox3d_vem_fem.md``: per grid and load both methods'
 corner reaction R (the internal force at the moved corner, [R_x, R_y, R_z]), the relative difference
-|R_vem - R_fem| / |R_fem|, the smallest gap over the converged steps, Newton iterations and the
+|R_vem - R_fem| / |R_fem| (and of R_z alone), the smallest gap over the converged steps and the
+relative difference of its closure (initial gap less gap), Newton iterations and the
 wall time per Newton iteration (the steps' wall time over their iterations: assembly, solve,
 contact checks); then every case's gap at each converged step. ``--results DIR`` copies both there.
 Timings are as measured on the machine's state at the time (shared by other jobs), never asserted.
@@ -40,8 +41,11 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE.parent / "demos"))
 import cbox3d  # noqa: E402
+from dolfinx_sfvem.benchmarks3d import CBOX3D_H, CBOX3D_T  # noqa: E402
 from dolfinx_sfvem.run_summary import RunSummary  # noqa: E402
 
+#: the initial gap between the beams (height less two walls)
+GAP0 = CBOX3D_H - 2 * CBOX3D_T
 #: GRID:METHOD:SCALE:STEPS of the default run
 DEFAULT_CASES = tuple(f"{grid}:{method}:0.25:2" for grid in ("20x1x7", "20x2x7", "40x2x14")
                       for method in ("fem", "vem"))
@@ -91,9 +95,13 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
         vem, fem = by["vem"], by["fem"]
         both = vem["R"] is not None and fem["R"] is not None and vem["load"] == fem["load"]
         diff = (np.linalg.norm(np.subtract(vem["R"], fem["R"])) / np.linalg.norm(fem["R"])) if both else None
+        diff_z = abs(vem["R"][2] - fem["R"][2]) / abs(fem["R"][2]) if both else None
+        closure = [GAP0 - r["min_gap"] if r["min_gap"] is not None else None for r in (vem, fem)]
+        diff_closure = abs(closure[0] - closure[1]) / closure[1] if both and None not in closure else None
         ratio = (vem["s_per_newton"] / fem["s_per_newton"]) if vem["s_per_newton"] and fem["s_per_newton"] else None
         rows.append(f"| {grid} | {scale:g} | {vem['unknowns']} | {_vector(vem['R'])} | {_vector(fem['R'])} | "
-                    f"{_number(diff, '.2%')} | {_number(vem['min_gap'], '.4f')} | {_number(fem['min_gap'], '.4f')} | "
+                    f"{_number(diff, '.2%')} | {_number(diff_z, '.2%')} | {_number(vem['min_gap'], '.4f')} | "
+                    f"{_number(fem['min_gap'], '.4f')} | {_number(diff_closure, '.2%')} | "
                     f"{vem['newton']} / {fem['newton']} | {_number(vem['s_per_newton'], '.1f')} / "
                     f"{_number(fem['s_per_newton'], '.1f')} | {_number(ratio, '.1f')} |")
     return rows
@@ -104,11 +112,12 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
     lines = ["# 3D C-box: SFVEM and Q2 FEM on the same hexahedral grids (bench/cbox3d_vem_fem.py)", "",
              f"Point contact, corner displacement (0, 0.25, -1) x scale, Hu-Hu regularization, gamma 1e-5, "
              f"alpha_r 10; {machine}. R: the internal force at the moved corner at the last converged step; "
-             "difference: |R_vem - R_fem| / |R_fem| (both at the same load); gap: the smallest over the converged "
-             "steps; s/it: the steps' wall time per Newton iteration (machine shared with other jobs).", "",
-             "| grid | scale | unknowns | R SFVEM | R Q2 | difference | gap SFVEM | gap Q2 | Newton SFVEM / Q2 | "
-             "s/it SFVEM / Q2 | ratio |",
-             "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|"]
+             "difference: |R_vem - R_fem| / |R_fem| (both at the same load), R_z: the same of R_z alone; gap: the "
+             "smallest over the converged steps; closure: the relative difference of the gap's closure "
+             f"{GAP0:g} - gap; s/it: the steps' wall time per Newton iteration (machine shared with other jobs).", "",
+             "| grid | scale | unknowns | R SFVEM | R Q2 | difference | R_z | gap SFVEM | gap Q2 | closure | "
+             "Newton SFVEM / Q2 | s/it SFVEM / Q2 | ratio |",
+             "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     lines += comparison_rows(records)
     lines += ["", "Every case: load reached, steps, smallest det F, and the smallest gap at each converged step "
               "(load: gap).", "",
