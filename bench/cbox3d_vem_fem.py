@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import pathlib
 import platform
@@ -93,7 +94,7 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
         if set(by) != {"vem", "fem"}:
             continue
         vem, fem = by["vem"], by["fem"]
-        both = vem["R"] is not None and fem["R"] is not None and vem["load"] == fem["load"]
+        both = vem["R"] is not None and fem["R"] is not None and math.isclose(vem["load"], fem["load"])
         diff = (np.linalg.norm(np.subtract(vem["R"], fem["R"])) / np.linalg.norm(fem["R"])) if both else None
         diff_z = abs(vem["R"][2] - fem["R"][2]) / abs(fem["R"][2]) if both else None
         closure = [GAP0 - r["min_gap"] if r["min_gap"] is not None else None for r in (vem, fem)]
