@@ -3,15 +3,18 @@
 Usage::
 
     python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS ...] [--out DIR] [--results DIR]
+    python3 bench/cbox3d_vem_fem.py --results bench      # the measured cases
 
 Every case builds ``demos/cbox3d.py``'s problem (:func:`cbox3d.build`) on the ``NXxNYxNZ`` grid of
 hexahedra (``--cell hexahedron``: Q2 for ``fem``; for ``vem`` the same cells read as polyhedra,
 whose SFVEM unknowns are exactly Q2's), point contact, the corner's displacement times ``SCALE``
 reached in ``STEPS`` load steps (adaptive, as the demo), the Hu-Hu regularization (the demo's
 default, the rotation regularization, compiles for minutes in 3D), gamma and alpha_r the demo's
-defaults (1e-5, 10), and solves it in this process, one case after the other. The default cases:
-both methods at a quarter of the load in 2 steps on the grids 20x1x7, 20x2x7 and 40x2x14 (their
-grid lines resolve the C's wall: x = 0.1, z = 0.1, z = 0.6).
+defaults (1e-5, 10), and solves it in this process, one case after the other. The default cases
+(measured 2026-11-26 in about 50 min on 2 shared cores, kept in bench/cbox3d_vem_fem.{json,md},
+discussed in docs/notes/2026-11-26-sfvem-3d-cbox.md): both methods at a quarter of the load in 2
+steps on the grids 20x1x7, 20x2x7, 20x4x7, 40x2x14 and 40x4x14 (their grid lines resolve the C's
+wall: x = 0.1, z = 0.1, z = 0.6), and at the full load in 10 steps on 20x1x7.
 
 Writes ``DIR/cbox3d_vem_fem.json`` (every case, appended as it finishes: an interrupted run keeps
 its cases and a rerun skips them) and ``DIR/cbox3d_vem_fem.md``: per grid and load both methods'
@@ -48,8 +51,9 @@ from dolfinx_sfvem.run_summary import RunSummary  # noqa: E402
 #: the initial gap between the beams (height less two walls)
 GAP0 = CBOX3D_H - 2 * CBOX3D_T
 #: GRID:METHOD:SCALE:STEPS of the default run
-DEFAULT_CASES = tuple(f"{grid}:{method}:0.25:2" for grid in ("20x1x7", "20x2x7", "40x2x14")
-                      for method in ("fem", "vem"))
+DEFAULT_CASES = tuple(f"{grid}:{method}:{load}" for grid, load in
+                      (("20x1x7", "0.25:2"), ("20x2x7", "0.25:2"), ("20x4x7", "0.25:2"), ("40x2x14", "0.25:2"),
+                       ("40x4x14", "0.25:2"), ("20x1x7", "1:10")) for method in ("fem", "vem"))
 
 
 def run_case(grid: str, method: str, scale: float, steps: int) -> dict:
