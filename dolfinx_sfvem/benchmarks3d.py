@@ -110,9 +110,11 @@ class Benchmark3D:
 
     def nodes_on(self, name: str) -> np.ndarray:
         """Coordinates (k, 3) of the nodes on the named surface, sorted: its vertices, the midpoints
-        of the cell edges between two of them, and the centres of the cell faces whose corners are
-        all on it (Q2's face nodes on hexahedra; where the SFVEM hosts its face means). On a curved
-        surface the midpoints and centres lie off it (on the flat faces)."""
+        of the cell edges between two of them, and the centres (vertex means) of the cell faces
+        whose corners are all on it: the degree-2 nodes of P2 and Q2 (a hexahedron's face centre)
+        and the SFVEM's face-mean nodes (at the face centroids: a triangle's or a parallelogram's
+        vertex mean), which a boundary condition on the surface must hold too. On a curved surface
+        the midpoints and centres lie off it (on the flat faces)."""
         mesh = self.mesh
         on = self._surface(name).contains(mesh.points, self.tol)
         edges, faces = _cell_edges_and_faces(mesh)
@@ -133,7 +135,7 @@ class Benchmark3D:
         return on_surface
 
 
-#: local vertex pairs of the edges and local vertex quadruples (cyclic) of the faces of each cell type
+#: local vertex pairs of the edges and local vertex triples or quadruples (cyclic) of the faces of each cell type
 _EDGES = {"tetrahedron": [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)],
           "hexahedron": [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7),
                          (0, 4), (1, 5), (2, 6), (3, 7)]}
@@ -142,10 +144,9 @@ _FACES = {"tetrahedron": [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)],
 
 
 def _cell_edges_and_faces(mesh: CellMesh) -> tuple[np.ndarray, np.ndarray]:
-    """Distinct cell edges (e, 2) and faces (f, 3 or 4) of the mesh (vertex indices)."""
-    local = _FACES[mesh.cell_type]
+    """Distinct cell edges (e, 2) and faces (f, 3) or (f, 4) of the mesh (vertex indices)."""
     edges = np.sort(mesh.cells[:, _EDGES[mesh.cell_type]].reshape(-1, 2), axis=1)
-    faces = mesh.cells[:, local].reshape(-1, len(local[0]))
+    faces = mesh.cells[:, _FACES[mesh.cell_type]].reshape(-1, len(_FACES[mesh.cell_type][0]))
     _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
     return np.unique(edges, axis=0), faces[first]
 

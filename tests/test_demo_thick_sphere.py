@@ -43,3 +43,16 @@ def test_the_wrong_answers_are_missed(follower_run, wrong):
     answer = ts.answer_for("follower", ts.P_REF, 0.0, lame=True) if wrong == "lame" else \
         ts.answer_for("dead", ts.P_REF, 0.0)
     assert ts.compare(problem, run, answer)["u_r_mean"] > 2.5 * TOLERANCE
+
+
+def test_sfvem_on_the_tetrahedra_has_the_p2_geometric_error():
+    """The SFVEM on the tetrahedra of h = 0.5 read as polyhedra, at the small p against Lamé: the flat
+    faces make the cavity too small for both methods alike (measured: u_r(a) -3.79 % SFVEM, -3.66 % P2,
+    the P2 interpolation error being of higher order). With the face means of the symmetry planes'
+    triangles left free (a marker of the P2 nodes only) the SFVEM came out at -0.05 %, too soft."""
+    def error(method):
+        args = ts.common.parse_args(ts.make_parser(), ["--quiet", "--method", method])
+        return ts.solve("follower", ts.SMALL * ts.P_REF, 0.5, args, lame=True)["u_r_mean"]
+    vem, fem = error("vem"), error("fem")
+    assert -2.5 * TOLERANCE < vem < 0 and -2.5 * TOLERANCE < fem < 0
+    assert abs(vem - fem) < 0.005

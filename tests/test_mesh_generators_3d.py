@@ -156,7 +156,10 @@ def test_cbox3d_regions_conformity_and_markers(cell):
     assert len(clamp) == 3 * 8 and np.all(mesh.points[clamp, 0] == 0.0)
     assert np.array_equal(mesh.points[bench.vertex("load")], [2.0, 0.0, 0.7])
     nodes = bench.nodes_on("clamp")
-    assert len(nodes) == 5 * 15                                # Q2 and P2: (2 ny + 1)(2 nz + 1) nodes on x = 0
+    # Q2 and P2: (2 ny + 1)(2 nz + 1) nodes on x = 0; tetrahedra also the centroids of the 2 triangles per
+    # grid face (the SFVEM's face-mean nodes), which are no P2 nodes
+    assert len(nodes) == 5 * 15 + (0 if cell == "hexahedron" else 2 * 2 * 7)
+    assert np.all(nodes[:, 0] == 0.0)
     marker = bench.marker("clamp")
     assert marker(nodes.T).all()
     assert not marker(np.array([[0.05, 0.0, 0.0], [0.0, 0.0, 0.05 / 2]]).T).any()   # off the face; off the grid
@@ -255,10 +258,15 @@ def test_thick_sphere_volumes_surfaces_and_boundary(filled):
     boundary = np.unique(boundary_faces(mesh))
     named = np.unique(np.concatenate([bench.vertices_on(name) for name in bench.surfaces]))
     assert set(boundary) <= set(named)
-    # the inner surface's P2 nodes: its vertices and the midpoints of the edges between them (inside by the sagitta)
+    # the inner surface's nodes: its vertices, the midpoints of the edges between them (inside by the sagitta)
+    # and the centroids of the faces between them (the SFVEM's face means: deeper inside, on the flat faces)
     nodes = bench.nodes_on("inner")
     radius = np.linalg.norm(nodes, axis=1)
-    assert np.all(radius <= a + 1e-9) and np.all(radius > a - 0.5 ** 2 / (8 * a) - 1e-9)
+    assert np.all(radius <= a + 1e-9) and np.all(radius > a - 0.5 ** 2 / (6 * a) - 1e-9)
+    faces = np.unique(np.sort(mesh.cells[:, _TET_FACES].reshape(-1, 3), axis=1), axis=0)   # boundary or interface
+    inner_faces = faces[np.isin(faces, inner).all(axis=1)]
+    assert len(nodes) == len(inner) + len(inner_faces) + len(np.unique(np.sort(
+        inner_faces[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1), axis=0))
     for name in bench.points:
         bench.vertex(name)
 

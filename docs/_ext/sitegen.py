@@ -111,6 +111,8 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
     "thick_sphere": [
         ("thick-sphere-convergence.png", "Relative errors of u_r(a) and of the recorded conjugate (the cavity's volume "
                                          "change) against the unknowns, four cases: O(h^2), set by the flat faces"),
+        ("thick-sphere-vem-convergence.png", "The same with the SFVEM on the tetrahedra read as polyhedra: the same "
+                                             "errors and order on each mesh, with 2.7-2.9 times the unknowns"),
     ],
 }
 
