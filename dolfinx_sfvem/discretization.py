@@ -13,6 +13,7 @@ state saved on one partition can be read on another.
 from __future__ import annotations
 
 import abc
+import dataclasses
 import typing
 from dataclasses import dataclass
 
@@ -455,9 +456,43 @@ class Discretization(abc.ABC):
 class OnSFVEMNodes(Discretization):
     """A discretization whose nodes are the nodes of an SFVEM space, ``self.space``
     (:class:`~dolfinx_sfvem.space.SFVEMNodes`: polygons or polyhedra): sizes, coordinates, keys,
-    vectors and the located nodes are the space's."""
+    vectors and the located nodes are the space's; its ``regions`` and energy ``terms`` are
+    assembled by its ``_internal_force(x, b, regions)`` (returning [energy, ...] of this rank), a
+    term made by its ``_term(region, energy, term)``."""
 
     space: typing.Any
+    regions: list
+    terms: list
+
+    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
+        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x; without
+        their regularization when ``regularization`` is False (the same kernels, the parameters of
+        :meth:`Energy.unregularized_params`)."""
+        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium], regularization)
+
+    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
+        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
+        ``uses_gradient`` as the region's energy does: the term is assembled with the region's
+        basis tables; a cavity's −p ∫ (J − 1) dΩ is evaluated from the region's boundary traces
+        instead (``_term``)."""
+        region = next((reg for reg in self.regions if reg.tag == tag), None)
+        if region is None:
+            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
+        if energy.uses_gradient != region.energy.uses_gradient:
+            raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
+                             f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
+        term = EnergyTerm(tag, energy, dict(energy.params))
+        self.terms.append(self._term(region, energy, term))
+        return term
+
+    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
+                   params: typing.Mapping[str, float] | None = None) -> float:
+        """b = ∂/∂ũ ∫ ψ dΩ of the term alone (Eq. 52 over its region) with ``params``; returns ∫ ψ dΩ."""
+        reg = next(reg for reg in self.terms if reg.term is term)
+        alone = dataclasses.replace(reg, term=EnergyTerm(term.tag, term.energy,
+                                                         dict(params if params is not None else term.params)))
+        stats = self._internal_force(x, b, [alone])
+        return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
 
     @property
     def n_owned_nodes(self) -> int:

@@ -8,7 +8,6 @@ into the ghosted local form of a PETSc vector and accumulated over ranks.
 """
 from __future__ import annotations
 
-import dataclasses
 import typing
 from dataclasses import dataclass
 
@@ -154,12 +153,6 @@ class SFVEMDiscretization(OnSFVEMNodes):
                                              np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         return self._gather_info(stats, folded, kinked)
 
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
-        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x; without
-        their regularization when ``regularization`` is False (the same kernels, the parameters of
-        :meth:`Energy.unregularized_params`)."""
-        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium], regularization)
-
     def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region],
                         regularization: bool = True) -> np.ndarray:
         """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated, their regularization
@@ -212,32 +205,13 @@ class SFVEMDiscretization(OnSFVEMNodes):
         A.assemble()
 
     # ------------------------------------------------------------------ energy terms
-    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
-        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
-        ``uses_gradient`` as the region's energy does: the term is assembled with the region's
-        basis tables; a :class:`VolumeWork` term −p ∫ (J − 1) dΩ is evaluated exactly instead, from
-        the area enclosed by the region's deformed boundary traces (:class:`_AreaTerm`)."""
-        region = next((reg for reg in self.regions if reg.tag == tag), None)
-        if region is None:
-            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
-        if energy.uses_gradient != region.energy.uses_gradient:
-            raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
-                             f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
-        term = EnergyTerm(tag, energy, dict(energy.params))
-        if isinstance(energy, VolumeWork):       # ∫ (J − 1) dΩ exactly, from the boundary traces
-            self.terms.append(_AreaTerm(tag, energy, region.polygons, term))
-        else:
-            self.terms.append(_Region(tag, energy, compile_kernels(energy, self.comm), region.polygons, term))
-        return term
-
-    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
-                   params: typing.Mapping[str, float] | None = None) -> float:
-        """b = ∂/∂ũ ∫ ψ dΩ of the term alone (Eq. 52 over its region) with ``params``; returns ∫ ψ dΩ."""
-        reg = next(reg for reg in self.terms if reg.term is term)
-        alone = dataclasses.replace(reg, term=EnergyTerm(term.tag, term.energy,
-                                                         dict(params if params is not None else term.params)))
-        stats = self._internal_force(x, b, [alone])
-        return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
+    def _term(self, region: _Region, energy: Energy, term: EnergyTerm) -> _Region | _AreaTerm:
+        """The assembled form of an energy term (:meth:`OnSFVEMNodes.add_energy_term`): with the
+        region's basis tables, or a :class:`VolumeWork` term −p ∫ (J − 1) dΩ exactly, from the area
+        enclosed by the region's deformed boundary traces (:class:`_AreaTerm`)."""
+        if isinstance(energy, VolumeWork):
+            return _AreaTerm(region.tag, energy, region.polygons, term)
+        return _Region(region.tag, energy, compile_kernels(energy, self.comm), region.polygons, term)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:

@@ -17,7 +17,6 @@ T u, so its residual and stiffness stay consistent.
 """
 from __future__ import annotations
 
-import dataclasses
 import typing
 from dataclasses import dataclass
 
@@ -43,26 +42,19 @@ from .polyhedron_loops import (PolyhedronTables, basis_tables, deformation_at, l
                                residual_loop, tangent_loop)
 from .polyhedron_mesh import PolyhedronMesh
 from .projection3d import L_MIN, build_projections_3d
-from .vem import _Region, _residual_at, _tangent_at
+from .vem import _AreaTerm, _Region, _residual_at, _tangent_at
 
 #: quadrature degree of the UFL forms of loads on the host's faces (P2 traces: dead loads exactly)
 HOST_QUADRATURE_DEGREE = 4
 
 
 @dataclass
-class _CavityTerm:
-    """The energy term −p ∫ (J − 1) dΩ over a region (:class:`VolumeWork`), as −p ΔV: the volume
-    swept by the region's faces (:mod:`~dolfinx_sfvem.enclosed_volume`), exact on the face
-    projections, where the projected gradient's ∫ det Π⁰_l∇u would depend on interior DOFs."""
-    tag: int
-    energy: Energy
-    polygons: np.ndarray     # local polyhedra of the region (int64)
-    term: EnergyTerm
+class _CavityTerm(_AreaTerm):
+    """The 3D form of the polygons' :class:`_AreaTerm` (``polygons``: the region's local polyhedra):
+    −p ∫ (J − 1) dΩ as −p ΔV, the volume swept by the region's faces
+    (:mod:`~dolfinx_sfvem.enclosed_volume`), exact on the face projections, where the projected
+    gradient's ∫ det Π⁰_l∇u would depend on interior DOFs."""
     volume: EnclosedVolume
-
-    @property
-    def params(self) -> dict[str, float]:
-        return self.term.params
 
 
 class PolyhedralDiscretization(OnSFVEMNodes):
@@ -147,11 +139,6 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         cell, tag = self.comm.bcast(where, root=rank)
         return AssemblyInfo(self.comm.allreduce(stats[0], op=MPI.SUM), float(min_J), cell, tag)
 
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
-        """b = ∂W_medium/∂ũ of the third-medium regions alone (without their regularization when
-        ``regularization`` is False)."""
-        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium], regularization)
-
     def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region],
                         regularization: bool = True) -> np.ndarray:
         """b = ∂/∂ũ of the energy of ``regions``, ghosts accumulated; this rank's [energy, min J,
@@ -192,32 +179,13 @@ class PolyhedralDiscretization(OnSFVEMNodes):
                     reg.volume.add_tangent(u, -reg.params["p"], A)
 
     # ------------------------------------------------------------------ energy terms
-    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
-        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`), integrated as the
-        region's energy (Π⁰_l∇u at its quadrature points); a :class:`VolumeWork` term −p ∫ (J − 1) dΩ
-        as −p ΔV from the region's faces instead (:class:`_CavityTerm`). ψ must declare
-        ``uses_gradient`` as the region's energy does (the same basis tables)."""
-        region = next((reg for reg in self.regions if reg.tag == tag), None)
-        if region is None:
-            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
-        if energy.uses_gradient != region.energy.uses_gradient:
-            raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
-                             f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
-        term = EnergyTerm(tag, energy, dict(energy.params))
+    def _term(self, region: _Region, energy: Energy, term: EnergyTerm) -> _Region | _CavityTerm:
+        """The assembled form of an energy term (:meth:`OnSFVEMNodes.add_energy_term`): at the
+        region's quadrature points with Π⁰_l∇u, or a :class:`VolumeWork` term −p ∫ (J − 1) dΩ as
+        −p ΔV from the region's faces (:class:`_CavityTerm`)."""
         if isinstance(energy, VolumeWork):
-            self.terms.append(_CavityTerm(tag, energy, region.polygons, term, EnclosedVolume(self, tag)))
-        else:
-            self.terms.append(_Region(tag, energy, compile_kernels(energy, self.comm, dim=3), region.polygons, term))
-        return term
-
-    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
-                   params: typing.Mapping[str, float] | None = None) -> float:
-        """b = ∂/∂ũ ∫ ψ dΩ of the term alone with ``params``; returns ∫ ψ dΩ."""
-        reg = next(reg for reg in self.terms if reg.term is term)
-        alone = dataclasses.replace(reg, term=EnergyTerm(term.tag, term.energy,
-                                                         dict(params if params is not None else term.params)))
-        stats = self._internal_force(x, b, [alone])
-        return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
+            return _CavityTerm(region.tag, energy, region.polygons, term, EnclosedVolume(self, region.tag))
+        return _Region(region.tag, energy, compile_kernels(energy, self.comm, dim=3), region.polygons, term)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
