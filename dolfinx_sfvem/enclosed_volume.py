@@ -26,15 +26,10 @@ import dolfinx.fem.petsc
 
 from . import _compat
 from .compile_lock import compiled_form
-from .face_loads import cofactor
+from .face_loads import mean_cofactor
 
 #: the tag of a region's interface facets in their facet tags
 INTERFACE = 1
-
-
-def mean_cofactor(H: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-    """∫₀¹ cof(I + s H) ds of a 3 x 3 expression (module docstring)."""
-    return ufl.Identity(3) + (ufl.tr(H) * ufl.Identity(3) - H.T) / 2 + cofactor(H) / 3
 
 
 def interface_facets(mesh: dolfinx.mesh.Mesh, inside: np.ndarray) -> np.ndarray:

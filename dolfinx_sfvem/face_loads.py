@@ -56,6 +56,11 @@ def cofactor(A: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
                           for i in range(3)])
 
 
+def mean_cofactor(H: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    """∫₀¹ cof(I + s H) ds = I + ½ (tr H I − Hᵀ) + ⅓ cof H of a 3 x 3 expression (module docstring)."""
+    return ufl.Identity(3) + (ufl.tr(H) * ufl.Identity(3) - H.T) / 2 + cofactor(H) / 3
+
+
 def exterior_facets(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
     """Local facets on the boundary of the (whole) mesh."""
     tdim = mesh.topology.dim
@@ -187,9 +192,7 @@ class FaceForms:
 
     def swept_volume(self) -> ufl.Form:
         """The volume swept into the body by the faces along straight paths (module docstring)."""
-        H = ufl.grad(self.u)
-        mean_cofactor = ufl.Identity(3) + (ufl.tr(H) * ufl.Identity(3) - H.T) / 2 + cofactor(H) / 3
-        return -ufl.dot(self.u, mean_cofactor * self.N) * self.ds
+        return -ufl.dot(self.u, mean_cofactor(ufl.grad(self.u)) * self.N) * self.ds
 
 
 # --------------------------------------------------------------------------- bound loads
