@@ -527,10 +527,8 @@ class PolyhedralSpace(SFVEMNodes):
         mesh = self.polyhedron_mesh
         n_p = mesh.n_points
         vertices = mesh.face(f)
-        p = mesh.points[vertices]
-        normal = np.cross(p - p.mean(axis=0), np.roll(p, -1, axis=0) - p.mean(axis=0)).sum(axis=0)
-        normal /= np.linalg.norm(normal)
-        origin = p.mean(axis=0)
+        normal = mesh.face_area_vectors[f] / np.linalg.norm(mesh.face_area_vectors[f])
+        origin = mesh.face_centroids[f]
         xy = plane_coordinates(mesh.points, vertices, origin, normal)
         area, x_f, h_f = polygon_geometry(xy)
         Pi = pi_nabla_2(xy, x_f, h_f, area)                                          # (6, 2 N + 1)

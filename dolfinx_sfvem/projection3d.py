@@ -646,7 +646,6 @@ class Projections3D(ProjectionBlocks):
         return self.vertices[self.vertex_offsets[j]:self.vertex_offsets[j + 1]]
 
 
-
 def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, face_vertices: npt.ArrayLike,
                          cell_offsets: npt.ArrayLike, cell_faces: npt.ArrayLike, cell_face_signs: npt.ArrayLike,
                          cells: npt.ArrayLike | None = None, l: int | None = None, l_min: int = L_MIN,
