@@ -456,13 +456,28 @@ class Discretization(abc.ABC):
 class OnSFVEMNodes(Discretization):
     """A discretization whose nodes are the nodes of an SFVEM space, ``self.space``
     (:class:`~dolfinx_sfvem.space.SFVEMNodes`: polygons or polyhedra): sizes, coordinates, keys,
-    vectors and the located nodes are the space's; its ``regions`` and energy ``terms`` are
-    assembled by its ``_internal_force(x, b, regions)`` (returning [energy, ...] of this rank), a
-    term made by its ``_term(region, energy, term)``."""
+    vectors and the located nodes are the space's; the force of each of its ``regions`` and energy
+    ``terms`` comes from its ``_add_force(reg, u, R, stats, regularization)``, a term is made by its
+    ``_term(region, energy, term)``."""
 
     space: typing.Any
     regions: list
     terms: list
+
+    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence,
+                        regularization: bool = True) -> np.ndarray:
+        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated, their regularization
+        left out when ``regularization`` is False; returns this rank's [energy, min J, local cell of
+        min J]."""
+        stats = np.array([0.0, np.inf, -1.0])
+        with x.localForm() as xl, b.localForm() as bl:
+            bl.set(0.0)
+            u = xl.array_r.reshape(-1, self.gdim)
+            R = bl.array.reshape(-1, self.gdim)
+            for reg in regions:
+                self._add_force(reg, u, R, stats, regularization)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return stats
 
     def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
         """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x; without

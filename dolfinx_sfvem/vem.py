@@ -153,28 +153,19 @@ class SFVEMDiscretization(OnSFVEMNodes):
                                              np.arange(self.space.polygons.size, dtype=np.int64), self._solid)
         return self._gather_info(stats, folded, kinked)
 
-    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region],
-                        regularization: bool = True) -> np.ndarray:
-        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated, their regularization
-        left out when ``regularization`` is False; returns this rank's [energy, min J, local polygon
-        of min J]."""
-        stats = np.array([0.0, np.inf, -1.0])
-        with x.localForm() as xl, b.localForm() as bl:
-            bl.set(0.0)
-            u = xl.array_r.reshape(-1, 2)
-            R = bl.array.reshape(-1, 2)
-            for reg in regions:
-                if isinstance(reg, _AreaTerm):
-                    stats[0] -= reg.params["p"] * area_force_loop(reg.polygons, self.space.dof_offsets, self.space.dofs,
-                                                                  self.space.x_nodes, u, -reg.params["p"], R)
-                    continue
-                k = reg.kernels
-                P_at, T_at = _residual_at(k)
-                c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
-                residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons,
-                              self._tables, u, R, stats)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return stats
+    def _add_force(self, reg: _Region | _AreaTerm, u: np.ndarray, R: np.ndarray, stats: np.ndarray,
+                   regularization: bool) -> None:
+        """R += ∂/∂ũ of one region's or term's energy (Eq. 52) at the nodal u
+        (:meth:`OnSFVEMNodes._internal_force`)."""
+        if isinstance(reg, _AreaTerm):
+            stats[0] -= reg.params["p"] * area_force_loop(reg.polygons, self.space.dof_offsets, self.space.dofs,
+                                                          self.space.x_nodes, u, -reg.params["p"], R)
+            return
+        k = reg.kernels
+        P_at, T_at = _residual_at(k)
+        c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
+        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons, self._tables,
+                      u, R, stats)
 
     def _gather_info(self, stats: np.ndarray, folded: np.ndarray, kinked: np.ndarray) -> AssemblyInfo:
         """AssemblyInfo over all ranks from this rank's [energy, min J, its local polygon] and

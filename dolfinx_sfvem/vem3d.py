@@ -139,26 +139,17 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         cell, tag = self.comm.bcast(where, root=rank)
         return AssemblyInfo(self.comm.allreduce(stats[0], op=MPI.SUM), float(min_J), cell, tag)
 
-    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence[_Region],
-                        regularization: bool = True) -> np.ndarray:
-        """b = ∂/∂ũ of the energy of ``regions``, ghosts accumulated; this rank's [energy, min J,
-        local polyhedron of min J]."""
-        stats = np.array([0.0, np.inf, -1.0])
-        with x.localForm() as xl, b.localForm() as bl:
-            bl.set(0.0)
-            u = xl.array_r.reshape(-1, 3)
-            R = bl.array.reshape(-1, 3)
-            for reg in regions:
-                if isinstance(reg, _CavityTerm):
-                    stats[0] += reg.volume.add_force(u, -reg.params["p"], R)
-                    continue
-                k = reg.kernels
-                P_at, T_at = _residual_at(k)
-                c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
-                residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, reg.polygons, self._tables, u, R,
-                              stats)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return stats
+    def _add_force(self, reg: _Region | _CavityTerm, u: np.ndarray, R: np.ndarray, stats: np.ndarray,
+                   regularization: bool) -> None:
+        """R += ∂/∂ũ of one region's or term's energy (Eq. 52) at the nodal u
+        (:meth:`OnSFVEMNodes._internal_force`)."""
+        if isinstance(reg, _CavityTerm):
+            stats[0] += reg.volume.add_force(u, -reg.params["p"], R)
+            return
+        k = reg.kernels
+        P_at, T_at = _residual_at(k)
+        c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
+        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, reg.polygons, self._tables, u, R, stats)
 
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """Tangent (Eq. 56) at x into A, energy terms included, constraints not applied."""
