@@ -2,13 +2,14 @@
 
 Usage::
 
-    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS ...] [--out DIR] [--results DIR]
+    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS[:PATCH] ...] [--out DIR] [--results DIR]
     python3 bench/cbox3d_vem_fem.py --results bench      # the measured cases
 
 Every case builds ``demos/cbox3d.py``'s problem (:func:`cbox3d.build`) on the ``NXxNYxNZ`` grid of
 hexahedra (``--cell hexahedron``: Q2 for ``fem``; for ``vem`` the same cells read as polyhedra,
 whose SFVEM unknowns are exactly Q2's), point contact, the corner's displacement times ``SCALE``
-reached in ``STEPS`` load steps (adaptive, as the demo), the Hu-Hu regularization (the demo's
+(with ``PATCH``: the ``--load-patch`` square of that side at the corner, a finite reaction where the
+corner alone has none in 3D; docs/notes/2026-11-26-cbox3d-tet-hex.md) reached in ``STEPS`` load steps (adaptive, as the demo), the Hu-Hu regularization (the demo's
 default, the rotation regularization, compiles for minutes in 3D), gamma and alpha_r the demo's
 defaults (1e-5, 10), and solves it in this process, one case after the other. The default cases
 (measured 2026-11-26 in about 50 min on 2 shared cores, kept in bench/cbox3d_vem_fem.{json,md},
@@ -56,10 +57,12 @@ DEFAULT_CASES = tuple(f"{grid}:{method}:{load}" for grid, load in
                        ("40x4x14", "0.25:2"), ("20x1x7", "1:10")) for method in ("fem", "vem"))
 
 
-def run_case(grid: str, method: str, scale: float, steps: int) -> dict:
+def run_case(grid: str, method: str, scale: float, steps: int, patch: float | None = None) -> dict:
     """Build and solve one case in this process (MPI.COMM_SELF); its record."""
     argv = ["--n", *grid.split("x"), "--cell", "hexahedron", "--contact", "point", "--scale", str(scale),
             "--steps", str(steps), "--regularization", "huhu", "--method", method, "--quiet"]
+    if patch is not None:
+        argv += ["--load-patch", str(patch)]
     args = cbox3d.common.parse_args(cbox3d.make_parser(), argv)
     t0 = time.perf_counter()
     problem, _ = cbox3d.build(args, MPI.COMM_SELF)
@@ -71,13 +74,22 @@ def run_case(grid: str, method: str, scale: float, steps: int) -> dict:
     newton = run.newton_iterations
     step_time = sum(s.wall_time_s for s in run.steps)
     final = run.final_step
-    return {"grid": grid, "method": method, "scale": scale, "steps": steps, "unknowns": run.dofs,
+    return {"grid": grid, "method": method, "scale": scale, "steps": steps, "patch": patch, "unknowns": run.dofs,
             "converged": run.converged, "load": run.load_reached, "message": run.message,
             "R": final.reaction["load"] if final else None, "R_clamp": final.reaction["clamp"] if final else None,
             "gaps": gaps, "min_gap": min((g for _, g in gaps if g is not None), default=None),
             "min_J": min((s.min_J for s in converged if s.min_J is not None), default=None),
             "newton": newton, "setup_s": setup_s, "solve_s": result.wall_time_s,
             "s_per_newton": step_time / newton if newton else None}
+
+
+def _loading(record: dict) -> tuple[str, float, int, float | None]:
+    """(grid, scale, steps, patch) of a record: the cases whose two methods are compared."""
+    return record["grid"], record["scale"], record["steps"], record.get("patch")
+
+
+def _patch(patch: float | None) -> str:
+    return "corner" if patch is None else f"{patch:g} patch"
 
 
 def _vector(v: typing.Sequence[float] | None) -> str:
@@ -91,10 +103,10 @@ def _number(v: float | None, fmt: str) -> str:
 def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
     """The markdown rows comparing the two methods on each grid and load that has both."""
     rows = []
-    keys = sorted({(r["grid"], r["scale"], r["steps"]) for r in records},
-                  key=lambda k: (k[1], k[2], [int(n) for n in k[0].split("x")]))
-    for grid, scale, steps in keys:
-        by = {r["method"]: r for r in records if (r["grid"], r["scale"], r["steps"]) == (grid, scale, steps)}
+    keys = sorted({_loading(r) for r in records},
+                  key=lambda k: (k[3] or 0.0, k[1], k[2], [int(n) for n in k[0].split("x")]))
+    for grid, scale, steps, patch in keys:
+        by = {r["method"]: r for r in records if _loading(r) == (grid, scale, steps, patch)}
         if set(by) != {"vem", "fem"}:
             continue
         vem, fem = by["vem"], by["fem"]
@@ -104,7 +116,7 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
         closure = [GAP0 - r["min_gap"] if r["min_gap"] is not None else None for r in (vem, fem)]
         diff_closure = abs(closure[0] - closure[1]) / closure[1] if both and None not in closure else None
         ratio = (vem["s_per_newton"] / fem["s_per_newton"]) if vem["s_per_newton"] and fem["s_per_newton"] else None
-        rows.append(f"| {grid} | {scale:g} | {vem['unknowns']} | {_vector(vem['R'])} | {_vector(fem['R'])} | "
+        rows.append(f"| {grid} | {_patch(patch)} | {scale:g} | {vem['unknowns']} | {_vector(vem['R'])} | {_vector(fem['R'])} | "
                     f"{_number(diff, '.2%')} | {_number(diff_z, '.2%')} | {_number(vem['min_gap'], '.4f')} | "
                     f"{_number(fem['min_gap'], '.4f')} | {_number(diff_closure, '.2%')} | "
                     f"{vem['newton']} / {fem['newton']} | {_number(vem['s_per_newton'], '.1f')} / "
@@ -115,29 +127,29 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
 def markdown(records: typing.Sequence[dict], machine: str) -> str:
     """The comparison table, then every case's gaps over its load path."""
     lines = ["# 3D C-box: SFVEM and Q2 FEM on the same hexahedral grids (bench/cbox3d_vem_fem.py)", "",
-             f"Point contact, corner displacement (0, 0.25, -1) x scale, Hu-Hu regularization, gamma 1e-5, "
-             f"alpha_r 10; {machine}. R: the internal force at the moved corner at the last converged step; "
+             f"Point contact, corner (or a patch at it, 'moved') displaced by (0, 0.25, -1) x scale, Hu-Hu regularization, gamma 1e-5, "
+             f"alpha_r 10; {machine}. R: the internal force at the moved nodes at the last converged step; "
              "difference: |R_vem - R_fem| / |R_fem| (both at the same load), R_z: the same of R_z alone; gap: the "
              "smallest over the converged steps; closure: the relative difference of the gap's closure "
              f"{GAP0:g} - gap; s/it: the steps' wall time per Newton iteration (machine shared with other jobs).", "",
-             "| grid | scale | unknowns | R SFVEM | R Q2 | difference | R_z | gap SFVEM | gap Q2 | closure | "
+             "| grid | moved | scale | unknowns | R SFVEM | R Q2 | difference | R_z | gap SFVEM | gap Q2 | closure | "
              "Newton SFVEM / Q2 | s/it SFVEM / Q2 | ratio |",
-             "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     lines += comparison_rows(records)
     lines += ["", "Every case: load reached, steps, smallest det F, and the smallest gap at each converged step "
               "(load: gap).", "",
-              "| grid | method | scale | unknowns | load reached | Newton | min J | gaps |",
-              "|---|---|---:|---:|---:|---:|---:|---|"]
+              "| grid | moved | method | scale | unknowns | load reached | Newton | min J | gaps |",
+              "|---|---|---|---:|---:|---:|---:|---:|---|"]
     for r in records:
         gaps = ", ".join(f"{load:.3g}: {_number(g, '.4f')}" for load, g in r["gaps"])
-        lines.append(f"| {r['grid']} | {r['method']} | {r['scale']:g} | {r['unknowns']} | {r['load']:.3g} | "
+        lines.append(f"| {r['grid']} | {_patch(r.get('patch'))} | {r['method']} | {r['scale']:g} | {r['unknowns']} | {r['load']:.3g} | "
                      f"{r['newton']} | {_number(r['min_J'], '.3g')} | {gaps} |")
     return "\n".join(lines) + "\n"
 
 
 def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS")
+    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS[:PATCH]")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/cbox3d_vem_fem"))
     parser.add_argument("--results", type=pathlib.Path, default=None)
     return parser.parse_args(argv)
@@ -148,10 +160,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     store = args.out / "cbox3d_vem_fem.json"
     records = json.loads(store.read_text()) if store.exists() else []
-    done = {(r["grid"], r["method"], r["scale"], r["steps"]) for r in records}
+    done = {(r["grid"], r["method"], r["scale"], r["steps"], r.get("patch")) for r in records}
     for case in args.cases:
-        grid, method, scale, steps = case.split(":")
-        key = (grid, method, float(scale), int(steps))
+        grid, method, scale, steps, *patch = case.split(":")
+        key = (grid, method, float(scale), int(steps), float(patch[0]) if patch else None)
         if key in done:
             continue
         record = run_case(*key)
