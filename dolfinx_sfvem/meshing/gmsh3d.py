@@ -130,11 +130,21 @@ def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
     return CellMesh(points, cells, tags, cell_type, dict(names))
 
 
+def graded_size(distance: np.ndarray, h_near: float, h_far: float, radius: float, width: float,
+                core: tuple[float, float, float] | None = None) -> np.ndarray:
+    """The mesh size of :func:`size_field` at ``distance`` (any shape) from its centre."""
+    size = h_near + (h_far - h_near) * np.clip((distance - radius) / width, 0.0, 1.0)
+    if core is not None:
+        h_core, r_core, w_core = core
+        size = np.minimum(size, h_core + (h_near - h_core) * np.maximum(0.0, (distance - r_core) / w_core))
+    return size
+
+
 def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radius: float, width: float,
                core: tuple[float, float, float] | None = None) -> None:
     """Background mesh size ``h_near`` within ``radius`` of ``centre``, growing linearly to ``h_far``
     over a shell of ``width`` beyond (a gmsh MathEval field; sizes from points, curvature and the
-    boundary switched off).
+    boundary switched off; :func:`graded_size` evaluates it).
 
     ``core = (h_core, r_core, w_core)``: besides, size ``h_core`` within ``r_core`` of ``centre``,
     growing linearly beyond, by ``h_near - h_core`` over ``w_core`` (the smaller size holds).
