@@ -9,6 +9,7 @@ import pytest
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.benchmarks3d import HERTZ3D_R, SPHERE, hertz3d_octree
+from dolfinx_sfvem.meshing.octree_tetrahedra import _square_of_triangles, top_squares
 from dolfinx_sfvem.polygon_mesh import concatenated_ranges, segment_owner
 
 #: coarse: cubes of 0.25 near the contact, 0.5 far away
@@ -106,6 +107,19 @@ def test_geometry_must_cover_the_top():
 
     with pytest.raises(ValueError, match="cover"):
         sf.meshes.octree_under_tetrahedra(octree, half_box, {"block": 1, "top": 2}, 1)
+
+
+def test_a_triangle_across_two_squares_is_refused():
+    """The check behind the conformity: a triangle of the top plane reaching into the next square."""
+    octree = sf.meshes.octree_box((0.0, 0.0, 0.0), (2.0, 1.0, 1.0), (2, 1, 1))
+    leaves, lower, upper = top_squares(octree)
+    points = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0], [2.0, 0.0, 1.0],
+                       [2.0, 1.0, 1.0]])
+    squares = _square_of_triangles(octree, leaves, points, np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]),
+                                   lower, upper, 1e-12)
+    assert leaves[squares].tolist() == [0, 0, 1, 1]
+    with pytest.raises(ValueError, match="does not lie inside one octree square"):
+        _square_of_triangles(octree, leaves, points, np.array([[0, 4, 5], [0, 5, 3]]), lower, upper, 1e-12)
 
 
 @pytest.mark.slow

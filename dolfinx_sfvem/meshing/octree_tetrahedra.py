@@ -55,7 +55,7 @@ def octree_under_tetrahedra(octree: OctreeMesh, build: VolumeBuilder, names: Map
     build
         A :data:`~dolfinx_sfvem.meshing.gmsh3d.VolumeBuilder` making the bodies above the block with
         gmsh's OpenCASCADE kernel (synchronised, mesh size set; ``{tag: volumes}`` returned); their
-        bottom must cover the block's top (no gaps, no overhang over the block's sides is needed).
+        part on the plane z = top must be exactly the block's top (no gap, nothing beyond it).
     names
         Region name -> tag of the whole mesh (the block's included).
     block_tag
@@ -94,7 +94,7 @@ def octree_under_tetrahedra(octree: OctreeMesh, build: VolumeBuilder, names: Map
     points, gmsh_index = _merge_points(blocks.points, tets.points, tol)
     cells = gmsh_index[tets.cells]
     triangles = _top_triangles(points, cells, z_top, tol)
-    owner = _square_of_triangles(points, triangles, square_lo, square_hi, tol)
+    owner = _square_of_triangles(octree, leaves, points, triangles, square_lo, square_hi, tol)
     on_top = np.abs(points[:, 2] - z_top) <= tol
     face_offsets, face_vertices = _with_top_points(points, blocks.face_offsets, blocks.face_vertices,
                                                    np.flatnonzero(on_top[blocks.n_points:]) + blocks.n_points,
@@ -138,20 +138,21 @@ def _top_triangles(points: npt.NDArray[np.float64], tetrahedra: npt.NDArray[np.i
     return faces[on_plane][:, ::-1]
 
 
-def _square_of_triangles(points: npt.NDArray[np.float64], triangles: npt.NDArray[np.int64],
-                         lower: npt.NDArray[np.float64], upper: npt.NDArray[np.float64], tol: float
-                         ) -> npt.NDArray[np.int64]:
-    """The square (index into ``lower``, ``upper`` (k, 2)) holding each triangle (t,); ValueError
-    if a triangle's corners are not all in the square of its centroid, or the triangles do not
-    cover every square."""
+def _square_of_triangles(octree: OctreeMesh, leaves: npt.NDArray[np.int64], points: npt.NDArray[np.float64],
+                         triangles: npt.NDArray[np.int64], lower: npt.NDArray[np.float64],
+                         upper: npt.NDArray[np.float64], tol: float) -> npt.NDArray[np.int64]:
+    """The top square (index into ``leaves`` (k,) and their squares' corners ``lower``, ``upper``
+    (k, 2)) holding each triangle (t,): the top leaf over the finest cell under the triangle's
+    centroid. ValueError if a triangle's corners are not all in that square, or the triangles do
+    not cover every square."""
     xy = points[triangles, :2]                                          # (t, 3, 2)
     centre = xy.mean(axis=1)
-    square = np.full(len(triangles), -1, dtype=np.int64)
-    distance, nearest = cKDTree(0.5 * (lower + upper)).query(centre, k=min(4, len(lower)))
-    nearest = nearest.reshape(len(triangles), -1)
-    for k in range(nearest.shape[1]):
-        inside = np.all((centre >= lower[nearest[:, k]]) & (centre <= upper[nearest[:, k]]), axis=1)
-        square[(square < 0) & inside] = nearest[(square < 0) & inside, k]
+    finest = octree.n << octree.finest
+    ij = np.floor((centre - octree.lower[:2]) / (octree.upper - octree.lower)[:2] * finest[:2]).astype(np.int64)
+    ijk = np.column_stack([np.clip(ij, 0, finest[:2] - 1), np.full(len(ij), finest[2] - 1)])
+    leaf = octree.covering(octree.finest, ijk)
+    square = np.searchsorted(leaves, leaf)
+    square[(square >= leaves.size) | (leaves[np.minimum(square, leaves.size - 1)] != leaf)] = -1
     bad = np.flatnonzero(square < 0)
     if bad.size == 0:
         corners_in = np.all((xy >= lower[square, None] - tol) & (xy <= upper[square, None] + tol), axis=(1, 2))
