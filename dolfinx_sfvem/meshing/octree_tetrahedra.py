@@ -69,9 +69,9 @@ def octree_under_tetrahedra(octree: OctreeMesh, build: VolumeBuilder, names: Map
     Raises
     ------
     ValueError
-        If a gmsh triangle on the top plane does not lie inside one octree square (the geometry
-        does not cover the top, or gmsh did not follow the squares), and whatever
-        :class:`PolyhedronMesh` refuses.
+        If a gmsh triangle on the top plane does not lie inside one octree square, or the
+        triangles leave part of a square uncovered (the geometry is not exactly on the block's
+        top), and whatever :class:`PolyhedronMesh` refuses.
     """
     leaves, square_lo, square_hi = top_squares(octree)
     z_top = float(octree.upper[2])
