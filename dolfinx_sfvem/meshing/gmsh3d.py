@@ -149,12 +149,13 @@ def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radiu
     ``core = (h_core, r_core, w_core)``: besides, size ``h_core`` within ``r_core`` of ``centre``,
     growing linearly beyond, by ``h_near - h_core`` over ``w_core`` (the smaller size holds).
     """
-    x0, y0, z0 = centre
+    x0, y0, z0 = (float(c) for c in centre)          # plain floats: NumPy 2's repr of its scalars is no number
+    h_near, h_far, radius, width = float(h_near), float(h_far), float(radius), float(width)
     distance = f"Sqrt((x - {x0!r})^2 + (y - {y0!r})^2 + (z - {z0!r})^2)"
 
     size = f"{h_near!r} + {h_far - h_near!r} * Min(1, Max(0, ({distance} - {radius!r}) / {width!r}))"
     if core is not None:
-        h_core, r_core, w_core = core
+        h_core, r_core, w_core = (float(c) for c in core)
         inner = f"{h_core!r} + {h_near - h_core!r} * Max(0, ({distance} - {r_core!r}) / {w_core!r})"
         size = f"Min({size}, {inner})"
     field = gmsh.model.mesh.field.add("MathEval")

@@ -161,8 +161,8 @@ def _square_of_triangles(octree: OctreeMesh, leaves: npt.NDArray[np.int64], poin
         t = int(bad[0])
         raise ValueError(f"the gmsh triangle {triangles[t].tolist()} on the octree's top (corners "
                          f"{xy[t].tolist()}) does not lie inside one octree square")
-    area = np.bincount(square, weights=0.5 * np.abs(np.cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])),
-                       minlength=len(lower))
+    d1, d2 = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
+    area = np.bincount(square, weights=0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]), minlength=len(lower))
     uncovered = np.flatnonzero(np.abs(area - np.prod(upper - lower, axis=1)) > tol * (upper - lower).max(axis=1))
     if uncovered.size:
         s = int(uncovered[0])
