@@ -15,7 +15,10 @@ gmsh P2 tetrahedra of size ``--h`` within ``--fine-radius`` of the contact point
 ``--h-far`` away from it; with ``--h-core``, size ``--h-core`` within ``--core-radius`` (0.25) of
 it: the medium layer the sphere squeezes, the block's top and the sphere's tip under the contact
 zone (with one tetrahedron across the 0.1 gap, h = 0.1, the step after first contact inverts a
-squeezed medium cell). Block bottom z = 0 clamped, u_x = 0 on x = 0, u_y = 0 on y = 0, u_z
+squeezed medium cell). With ``--block octree`` (and ``--method vem``) the block is an octree of cubes
+refined toward the contact instead, its coarse cubes polyhedra with hanging vertices, under the same
+tetrahedra made conforming to its top squares (``sf.meshes.hertz3d_octree``; give --h, --h-core and
+--h-far as powers of 1/2, the cubes' sizes). Block bottom z = 0 clamped, u_x = 0 on x = 0, u_y = 0 on y = 0, u_z
 prescribed on the sphere's top (boundary condition ``load``).
 
 Parameters
@@ -117,6 +120,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--h-core", type=common.positive_float, default=0.05,
                    help="mesh size within --core-radius of the contact point: the squeezed medium layer and "
                         "the contact zone, < --h (default %(default)s)")
+    p.add_argument("--block", choices=("tetrahedra", "octree"), default="tetrahedra",
+                   help="the block's mesh: gmsh tetrahedra like the rest, or an octree of cubes refined toward "
+                        "the contact (polyhedra with hanging vertices; needs --method vem) (default %(default)s)")
     p.add_argument("--core-radius", type=common.positive_float, default=0.25,
                    help="radius about the contact point meshed with size --h-core (default %(default)s)")
     return p
@@ -124,8 +130,11 @@ def make_parser() -> argparse.ArgumentParser:
 
 def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     """The quarter Hertz model of the command line and the observer ``top_uz``."""
-    bench = sf.meshes.hertz3d(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius,
-                              h_core=args.h_core, core_radius=args.core_radius)
+    if args.block == "octree" and args.method != "vem":
+        raise ValueError("--block octree needs --method vem (the octree's cubes with hanging vertices are polyhedra)")
+    mesher = sf.meshes.hertz3d_octree if args.block == "octree" else sf.meshes.hertz3d
+    bench = mesher(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius,
+                   h_core=args.h_core, core_radius=args.core_radius)
     s = args.stiffness
     medium = sf.ThirdMedium(mu=MU, K=K, gamma=args.gamma, alpha_r=args.alpha_r,
                             regularization=args.regularization, beta=args.beta)
@@ -139,7 +148,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     problem.prescribe(top, tags=[SPHERE], uz=-(args.gap + args.indent), name="load")
     problem.parameters["geometry"] = {"R": HERTZ3D_R, "gap": args.gap, "h_far": args.h_far,
                                       "fine_radius": args.fine_radius, "h_core": args.h_core,
-                                      "core_radius": args.core_radius, "E": E, "nu": NU}
+                                      "core_radius": args.core_radius, "block": args.block, "E": E, "nu": NU}
     point = np.array([0.0, 0.0, HERTZ3D_H + args.gap + HERTZ3D_R])[:, None]
     at_axis_top = lambda x: np.linalg.norm(x - point, axis=0) <= 1e-10       # noqa: E731
     return problem, {"top_uz": common.displacement_observer(problem, at_axis_top, 2)}
@@ -253,7 +262,8 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build, solve and compare with Hertz; the exit code."""
     args = common.parse_args(make_parser(), argv)
     problem, observers = build(args)
-    title = (f"hertz3d: P2 tetrahedra, h = {args.h:g}, gamma = {args.gamma:g}, {args.regularization} "
+    cells = "octree block, tetrahedra" if args.block == "octree" else "tetrahedra"
+    title = (f"hertz3d: {'SFVEM' if args.method == 'vem' else 'P2'} on {cells}, h = {args.h:g}, gamma = {args.gamma:g}, {args.regularization} "
              f"alpha_r = {args.alpha_r:g}, indent {args.indent:g}")
     code = common.run(problem, args, observers)
     pressure = problem.contact_pressure()          # the last converged state (collective)

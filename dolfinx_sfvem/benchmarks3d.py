@@ -21,9 +21,12 @@ import scipy.spatial
 
 from .benchmarks import BASE_LAYER, FIRST_CHAMBER, MEDIUM, SOLID, PneuNet, _check_lengths
 from .cell_mesh import CellMesh
-from .meshing.gmsh3d import gmsh_tetrahedra, size_field
+from .meshing.gmsh3d import graded_size, gmsh_tetrahedra, size_field
 from .meshing.grids import axis_nodes
 from .meshing.hexahedra import GridCell, box_grid
+from .meshing.octree import octree_box
+from .meshing.octree_tetrahedra import octree_under_tetrahedra
+from .polyhedron_mesh import PolyhedronMesh
 
 Point3 = tuple[float, float, float]
 
@@ -67,7 +70,7 @@ class Benchmark3D:
 
     Attributes
     ----------
-    mesh : CellMesh
+    mesh : CellMesh or PolyhedronMesh
         Cells tagged :data:`SOLID`, :data:`MEDIUM`, ...; its ``region_names`` are ``regions``.
     regions : dict name -> tag
         Region tags by body name.
@@ -80,7 +83,7 @@ class Benchmark3D:
         Length tolerance of the named points and surfaces (:data:`REL_TOL` x bounding-box diagonal).
     """
 
-    mesh: CellMesh
+    mesh: CellMesh | PolyhedronMesh
     regions: dict[str, int]
     points: dict[str, Point3]
     surfaces: dict[str, Surface]
@@ -113,14 +116,20 @@ class Benchmark3D:
         of the cell edges between two of them, and the centres (vertex means) of the cell faces
         whose corners are all on it: the degree-2 nodes of P2 and Q2 (a hexahedron's face centre)
         and the SFVEM's face-mean nodes (at the face centroids: a triangle's or a parallelogram's
-        vertex mean), which a boundary condition on the surface must hold too. On a curved surface
-        the midpoints and centres lie off it (on the flat faces)."""
+        vertex mean; on a :class:`PolyhedronMesh` the faces' centroids, where the SFVEM's fans
+        start on convex faces), which a boundary condition on the surface must hold too. On a
+        curved surface the midpoints and centres lie off it (on the flat faces)."""
         mesh = self.mesh
         on = self._surface(name).contains(mesh.points, self.tol)
-        edges, faces = _cell_edges_and_faces(mesh)
+        if isinstance(mesh, PolyhedronMesh):
+            edges = mesh.edges()
+            centres = mesh.face_centroids[np.logical_and.reduceat(on[mesh.face_vertices], mesh.face_offsets[:-1])]
+        else:
+            edges, faces = _cell_edges_and_faces(mesh)
+            faces = faces[on[faces].all(axis=1)]
+            centres = mesh.points[faces].mean(axis=1)
         edges = edges[on[edges].all(axis=1)]
-        faces = faces[on[faces].all(axis=1)]
-        nodes = [mesh.points[on], mesh.points[edges].mean(axis=1), mesh.points[faces].mean(axis=1)]
+        nodes = [mesh.points[on], mesh.points[edges].mean(axis=1), centres]
         return np.unique(np.concatenate(nodes), axis=0)
 
     def marker(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -261,29 +270,90 @@ def hertz3d(h_contact: float = 0.05, h_far: float = 0.25, gap: float = 0.1, *, f
     ``keep_gmsh``: also write the mesh to ``<keep_gmsh>.msh``.
     """
     _check_lengths(h_contact=h_contact, h_far=h_far, gap=gap, fine_radius=fine_radius, core_radius=core_radius)
-    if h_core is not None:
-        _check_lengths(h_core=h_core)
-        if h_core >= h_contact:
-            raise ValueError(f"h_core ({h_core}) must be smaller than h_contact ({h_contact})")
-    L, H, R = HERTZ3D_L, HERTZ3D_H, HERTZ3D_R
-    top = H + gap + R
+    core = _hertz_core(h_contact, h_core, core_radius)
 
     def build(gmsh) -> dict[int, list[int]]:
-        occ = gmsh.model.occ
-        block = occ.addBox(0.0, 0.0, 0.0, L, L, H)
-        box = occ.addBox(0.0, 0.0, H, L, L, gap + R)
-        sphere = occ.addSphere(0.0, 0.0, top, R, angle1=-math.pi / 2, angle2=0.0, angle3=math.pi / 2)
-        _, children = occ.fragment([(3, block), (3, box)], [(3, sphere)])
-        occ.synchronize()
-        sphere_parts = [v for _, v in children[2]]
-        core = None if h_core is None else (h_core, core_radius, core_radius)
-        size_field(gmsh, h_contact, h_far, (0.0, 0.0, H + gap / 2), fine_radius, 0.5, core)
-        return {SOLID: [v for _, v in children[0]], SPHERE: sphere_parts,
-                MEDIUM: [v for _, v in children[1] if v not in sphere_parts]}
+        regions = _hertz_bodies(gmsh, gap, block=True)
+        size_field(gmsh, h_contact, h_far, (0.0, 0.0, HERTZ3D_H + gap / 2), fine_radius, HERTZ3D_GROWTH, core)
+        return regions
 
-    regions = {"block": SOLID, "medium": MEDIUM, "sphere": SPHERE}
-    mesh = gmsh_tetrahedra(build, regions, keep_gmsh)
-    return Benchmark3D(mesh, regions, {"sphere_tip": (0.0, 0.0, H + gap), "block_top": (0.0, 0.0, H)},
+    return _hertz_benchmark(gmsh_tetrahedra(build, HERTZ3D_REGIONS, keep_gmsh), gap)
+
+
+def hertz3d_octree(h_contact: float = 0.0625, h_far: float = 0.25, gap: float = 0.1, *, fine_radius: float = 0.8,
+                   h_core: float | None = None, core_radius: float = 0.3) -> Benchmark3D:
+    """The quarter Hertz model of :func:`hertz3d` with an octree block: the block's cubes refined
+    toward the contact, the medium and the sphere gmsh tetrahedra conforming to the octree's top
+    (:func:`~dolfinx_sfvem.meshing.octree_tetrahedra.octree_under_tetrahedra`), all as a
+    :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh` for the SFVEM (``method="vem"``).
+
+    The block starts from 2 x 2 x 1 unit cubes; a cube is split (with 2:1 balance across faces
+    and edges) while its edge exceeds the size :func:`hertz3d`'s size field asks at the cube's
+    point nearest the field's centre (0, 0, 1 + gap / 2). The cubes end at the largest size
+    2**-k within that size: with ``h_contact``, ``h_far`` and ``h_core`` powers of 1/2 the cubes
+    near the contact have size ``h_contact`` (``h_core``), the far ones ``h_far``, like the
+    tetrahedra above them (gmsh gets the field as given). A coarse cube next to finer ones is one
+    polyhedron with hanging vertices; the top layer's cubes have the gmsh triangles inside their
+    top squares as faces, and the gmsh nodes on their top edges as further vertices.
+
+    Parameters, regions, named points and surfaces: as :func:`hertz3d`.
+    """
+    _check_lengths(h_contact=h_contact, h_far=h_far, gap=gap, fine_radius=fine_radius, core_radius=core_radius)
+    core = _hertz_core(h_contact, h_core, core_radius)
+    L, H = HERTZ3D_L, HERTZ3D_H
+    centre = np.array([0.0, 0.0, H + gap / 2])
+
+    def size(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+        nearest = np.clip(centre[:, None], lower, upper)
+        return graded_size(np.linalg.norm(nearest - centre[:, None], axis=0), h_contact, h_far, fine_radius,
+                           HERTZ3D_GROWTH, core)
+
+    def build(gmsh) -> dict[int, list[int]]:
+        regions = _hertz_bodies(gmsh, gap, block=False)
+        size_field(gmsh, h_contact, h_far, tuple(centre), fine_radius, HERTZ3D_GROWTH, core)
+        return regions
+
+    octree = octree_box((0.0, 0.0, 0.0), (L, L, H), (2, 2, 1)).refine_to(size)
+    return _hertz_benchmark(octree_under_tetrahedra(octree, build, HERTZ3D_REGIONS, SOLID), gap)
+
+
+#: the Hertz model's regions
+HERTZ3D_REGIONS = {"block": SOLID, "medium": MEDIUM, "sphere": SPHERE}
+#: width of the shell over which the Hertz meshes grow from h_contact to h_far
+HERTZ3D_GROWTH = 0.5
+
+
+def _hertz_core(h_contact: float, h_core: float | None, core_radius: float) -> tuple[float, float, float] | None:
+    """The ``core`` of :func:`~dolfinx_sfvem.meshing.gmsh3d.size_field` for h_core (checked)."""
+    if h_core is None:
+        return None
+    _check_lengths(h_core=h_core)
+    if h_core >= h_contact:
+        raise ValueError(f"h_core ({h_core}) must be smaller than h_contact ({h_contact})")
+    return h_core, core_radius, core_radius
+
+
+def _hertz_bodies(gmsh, gap: float, block: bool) -> dict[int, list[int]]:
+    """The Hertz model's volumes in the OpenCASCADE kernel (synchronised): the block (if ``block``),
+    the medium's box around the sphere, the sphere; {tag: volumes}."""
+    L, H, R = HERTZ3D_L, HERTZ3D_H, HERTZ3D_R
+    occ = gmsh.model.occ
+    objects = [(3, occ.addBox(0.0, 0.0, 0.0, L, L, H))] if block else []
+    objects.append((3, occ.addBox(0.0, 0.0, H, L, L, gap + R)))
+    sphere = occ.addSphere(0.0, 0.0, H + gap + R, R, angle1=-math.pi / 2, angle2=0.0, angle3=math.pi / 2)
+    _, children = occ.fragment(objects, [(3, sphere)])
+    occ.synchronize()
+    sphere_parts = [v for _, v in children[-1]]
+    regions = {SOLID: [v for _, v in children[0]]} if block else {}
+    regions.update({SPHERE: sphere_parts, MEDIUM: [v for _, v in children[-2] if v not in sphere_parts]})
+    return regions
+
+
+def _hertz_benchmark(mesh: CellMesh | PolyhedronMesh, gap: float) -> Benchmark3D:
+    """The Hertz model's mesh with its regions, named points and surfaces."""
+    H, R = HERTZ3D_H, HERTZ3D_R
+    top = H + gap + R
+    return Benchmark3D(mesh, dict(HERTZ3D_REGIONS), {"sphere_tip": (0.0, 0.0, H + gap), "block_top": (0.0, 0.0, H)},
                        {"bottom": Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
                         "symmetry_x": Plane((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),
                         "symmetry_y": Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),

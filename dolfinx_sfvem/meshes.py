@@ -4,13 +4,14 @@ Every 2D generator returns a :class:`~dolfinx_sfvem.polygon_mesh.PolygonMesh` wh
 integer region tag (:data:`SOLID`, :data:`MEDIUM`, ...); every 3D one a
 :class:`~dolfinx_sfvem.cell_mesh.CellMesh` of tetrahedra or hexahedra with the same tags, or, for the
 coming 3D SFVEM, a :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh` (:func:`extrude_polygons`,
-:func:`octree_box`, :func:`voronoi_box`). This module
+:func:`octree_box`, :func:`voronoi_box`, :func:`hertz3d_octree`). This module
 only gathers names: the geometries live in :mod:`dolfinx_sfvem.benchmarks` and
 :mod:`dolfinx_sfvem.benchmarks3d`, the mesh-making tools in :mod:`dolfinx_sfvem.meshing`.
 """
 from .benchmarks import (BASE_LAYER, CBOX_COLUMN, FIRST_CHAMBER, MEDIUM, SOLID, Arc, Benchmark, PneuNet, box, cbox,
                          cbox_grid, multi_object, pneumatic_actuator, punch, shallow_arch, thick_cylinder)
-from .benchmarks3d import SPHERE, Benchmark3D, Plane, PneuNet3D, SphereSurface, cbox3d, hertz3d, pneunet3d, thick_sphere
+from .benchmarks3d import (SPHERE, Benchmark3D, Plane, PneuNet3D, SphereSurface, cbox3d, hertz3d, hertz3d_octree,
+                           pneunet3d, thick_sphere)
 from .meshing.diagnostics import describe, t_junctions
 from .meshing.dual import dual_polygons
 from .meshing.gmsh_duals import polygon_rectangle
@@ -19,6 +20,7 @@ from .meshing.gmsh3d import from_gmsh_3d
 from .meshing.grids import quad_rectangle, quads_with_hanging_nodes
 from .meshing.hexahedra import box_grid, extrude, split_hexahedra
 from .meshing.octree import OctreeMesh, octree_box
+from .meshing.octree_tetrahedra import octree_under_tetrahedra
 from .meshing.prisms import extrude_polygons
 from .meshing.voronoi import voronoi_box
 from .meshing.npz import NPZ_FORMAT, read_polygons, write_polygons
@@ -30,6 +32,7 @@ __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_g
            "PolygonSet", "glue", "dual_polygons", "quad_rectangle", "quads_with_hanging_nodes", "polygon_rectangle",
            "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
            "write_polygons", "NPZ_FORMAT", "describe", "t_junctions",
-           "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "thick_sphere",
-           "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d",
-           "PolyhedronMesh", "OctreeMesh", "octree_box", "extrude_polygons", "voronoi_box"]
+           "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "hertz3d_octree",
+           "thick_sphere", "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d",
+           "PolyhedronMesh", "OctreeMesh", "octree_box", "octree_under_tetrahedra", "extrude_polygons",
+           "voronoi_box"]

@@ -166,3 +166,23 @@ def test_random_refinements_of_a_box_are_the_minimal_balanced_ones(seed):
     mesh = octree.polyhedra()
     assert mesh.volumes.sum() == pytest.approx(1.5, rel=1e-13)
     assert mesh.volumes == pytest.approx(np.prod(hi - lo, axis=1), rel=1e-12)
+
+
+def test_refine_to_a_size():
+    """A uniform size gives the uniform octree of that size; a size small only near a corner gives
+    cubes of that size at the corner, the coarse ones far away, and a 2:1 balanced mesh."""
+    box = octree_box([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], 1)
+    uniform = box.refine_to(lambda lower, upper: np.full(lower.shape[1], 0.3))
+    assert uniform.n_cells == 64 and np.all(uniform.sizes == 0.25)
+    assert box.refine_to(lambda lower, upper: np.ones(lower.shape[1])) is box
+
+    def corner(lower, upper):
+        return np.where(np.linalg.norm(lower, axis=0) < 1e-12, 0.125, 0.5)
+
+    mesh = box.refine_to(corner)
+    at_corner = np.all(mesh.centres - 0.5 * mesh.sizes == 0.0, axis=1)
+    assert np.all(mesh.sizes[at_corner] == 0.125) and mesh.sizes.max() == 0.5
+    assert mesh.unbalanced("edges").size == 0
+    assert np.all(mesh.parent == 0)
+    with pytest.raises(ValueError, match="positive sizes"):
+        box.refine_to(lambda lower, upper: np.zeros(lower.shape[1]))

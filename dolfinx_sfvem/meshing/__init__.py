@@ -20,6 +20,8 @@ prisms
     Polyhedra: any polygon mesh extruded into prisms (a ``PolyhedronMesh``).
 octree
     Polyhedra: octrees of a box refined where asked, 2:1 balanced, coarse cubes with hanging vertices.
+octree_tetrahedra
+    Polyhedra: an octree block under gmsh tetrahedra, conforming on the block's top plane.
 voronoi
     Polyhedra: Voronoi cells clipped to a box.
 npz

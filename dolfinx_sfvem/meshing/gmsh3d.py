@@ -130,21 +130,32 @@ def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
     return CellMesh(points, cells, tags, cell_type, dict(names))
 
 
+def graded_size(distance: np.ndarray, h_near: float, h_far: float, radius: float, width: float,
+                core: tuple[float, float, float] | None = None) -> np.ndarray:
+    """The mesh size of :func:`size_field` at ``distance`` (any shape) from its centre."""
+    size = h_near + (h_far - h_near) * np.clip((distance - radius) / width, 0.0, 1.0)
+    if core is not None:
+        h_core, r_core, w_core = core
+        size = np.minimum(size, h_core + (h_near - h_core) * np.maximum(0.0, (distance - r_core) / w_core))
+    return size
+
+
 def size_field(gmsh, h_near: float, h_far: float, centre: Sequence[float], radius: float, width: float,
                core: tuple[float, float, float] | None = None) -> None:
     """Background mesh size ``h_near`` within ``radius`` of ``centre``, growing linearly to ``h_far``
     over a shell of ``width`` beyond (a gmsh MathEval field; sizes from points, curvature and the
-    boundary switched off).
+    boundary switched off; :func:`graded_size` evaluates it).
 
     ``core = (h_core, r_core, w_core)``: besides, size ``h_core`` within ``r_core`` of ``centre``,
     growing linearly beyond, by ``h_near - h_core`` over ``w_core`` (the smaller size holds).
     """
-    x0, y0, z0 = centre
+    x0, y0, z0 = (float(c) for c in centre)          # plain floats: NumPy 2's repr of its scalars is no number
+    h_near, h_far, radius, width = float(h_near), float(h_far), float(radius), float(width)
     distance = f"Sqrt((x - {x0!r})^2 + (y - {y0!r})^2 + (z - {z0!r})^2)"
 
     size = f"{h_near!r} + {h_far - h_near!r} * Min(1, Max(0, ({distance} - {radius!r}) / {width!r}))"
     if core is not None:
-        h_core, r_core, w_core = core
+        h_core, r_core, w_core = (float(c) for c in core)
         inner = f"{h_core!r} + {h_near - h_core!r} * Max(0, ({distance} - {r_core!r}) / {w_core!r})"
         size = f"Min({size}, {inner})"
     field = gmsh.model.mesh.field.add("MathEval")

@@ -179,6 +179,40 @@ class OctreeMesh:
                 ancestor = ancestor[current.parent]
         return OctreeMesh(self.lower, self.upper, self.n, current.level, current.ijk, ancestor)
 
+    def refine_to(self, size: Callable[[np.ndarray, np.ndarray], np.ndarray], *,
+                  balance: Balance | None = "edges") -> "OctreeMesh":
+        """Split leaves (and their neighbours for 2:1 balance, as :meth:`refine`) until no leaf is
+        larger than the size asked for its box.
+
+        Parameters
+        ----------
+        size
+            ``size(lower, upper) -> (n,)``: the largest edge length wanted in each of the boxes with
+            corners ``lower``, ``upper`` (3, n) (e.g. small where the box comes near a point).
+        balance
+            As for :meth:`refine`.
+
+        Returns
+        -------
+        OctreeMesh
+            The refined mesh (itself if no leaf is too large); ``parent`` as for :meth:`refine`.
+            A leaf is split while its longest edge exceeds the size by more than 1e-9 relative, so
+            the leaves end at the largest size ``(upper - lower) / (n 2**k)`` within the size.
+        """
+        current, ancestor = self, np.arange(self.n_cells)
+        while True:
+            lower = current.centres - 0.5 * current.sizes
+            wanted = np.asarray(size(lower.T.copy(), (lower + current.sizes).T.copy()), dtype=np.float64)
+            if wanted.shape != (current.n_cells,) or not np.all(wanted > 0.0):
+                raise ValueError(f"refine_to: size must return {current.n_cells} positive sizes, got shape "
+                                 f"{wanted.shape}")
+            split = current.sizes.max(axis=1) > wanted * (1.0 + 1e-9)
+            if not split.any():
+                return current if current is self else OctreeMesh(self.lower, self.upper, self.n, current.level,
+                                                                  current.ijk, ancestor)
+            current = current.refine(split, 1, balance=balance)
+            ancestor = ancestor[current.parent]
+
     def _selection(self, where: Where) -> npt.NDArray[np.bool_]:
         """Mask (n_cells,) of the leaves chosen by a marker, a mask or indices; ValueError if empty."""
         if callable(where):
