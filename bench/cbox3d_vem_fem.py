@@ -2,16 +2,16 @@
 
 Usage::
 
-    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS[:PATCH] ...] [--out DIR] [--results DIR]
+    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS[:patch=S][:alpha_r=A] ...] [--out DIR] [--results DIR]
     python3 bench/cbox3d_vem_fem.py --results bench      # the measured cases
 
 Every case builds ``demos/cbox3d.py``'s problem (:func:`cbox3d.build`) on the ``NXxNYxNZ`` grid of
 hexahedra (``--cell hexahedron``: Q2 for ``fem``; for ``vem`` the same cells read as polyhedra,
 whose SFVEM unknowns are exactly Q2's), point contact, the corner's displacement times ``SCALE``
-(with ``PATCH``: the ``--load-patch`` square of that side at the corner, a finite reaction where the
+(with ``patch=S``: the ``--load-patch`` square of side S at the corner, a finite reaction where the
 corner alone has none in 3D; docs/notes/2026-11-26-cbox3d-tet-hex.md) reached in ``STEPS`` load steps (adaptive, as the demo), the Hu-Hu regularization (the demo's
-default, the rotation regularization, compiles for minutes in 3D), gamma and alpha_r the demo's
-defaults (1e-5, 10), and solves it in this process, one case after the other. The default cases
+default, the rotation regularization, compiles for minutes in 3D), gamma the demo's default (1e-5),
+alpha_r the demo's (10) unless ``alpha_r=A`` (0: the neo-Hookean medium alone), and solves it in this process, one case after the other. The default cases
 (measured 2026-11-26 in about 50 min on 2 shared cores, kept in bench/cbox3d_vem_fem.{json,md},
 discussed in docs/notes/2026-11-26-sfvem-3d-cbox.md): both methods at a quarter of the load in 2
 steps on the grids 20x1x7, 20x2x7, 20x4x7, 40x2x14 and 40x4x14 (their grid lines resolve the C's
@@ -57,12 +57,15 @@ DEFAULT_CASES = tuple(f"{grid}:{method}:{load}" for grid, load in
                        ("40x4x14", "0.25:2"), ("20x1x7", "1:10")) for method in ("fem", "vem"))
 
 
-def run_case(grid: str, method: str, scale: float, steps: int, patch: float | None = None) -> dict:
+def run_case(grid: str, method: str, scale: float, steps: int, patch: float | None = None,
+             alpha_r: float | None = None) -> dict:
     """Build and solve one case in this process (MPI.COMM_SELF); its record."""
     argv = ["--n", *grid.split("x"), "--cell", "hexahedron", "--contact", "point", "--scale", str(scale),
             "--steps", str(steps), "--regularization", "huhu", "--method", method, "--quiet"]
     if patch is not None:
         argv += ["--load-patch", str(patch)]
+    if alpha_r is not None:
+        argv += ["--alpha-r", str(alpha_r)]
     args = cbox3d.common.parse_args(cbox3d.make_parser(), argv)
     t0 = time.perf_counter()
     problem, _ = cbox3d.build(args, MPI.COMM_SELF)
@@ -74,7 +77,8 @@ def run_case(grid: str, method: str, scale: float, steps: int, patch: float | No
     newton = run.newton_iterations
     step_time = sum(s.wall_time_s for s in run.steps)
     final = run.final_step
-    return {"grid": grid, "method": method, "scale": scale, "steps": steps, "patch": patch, "unknowns": run.dofs,
+    return {"grid": grid, "method": method, "scale": scale, "steps": steps, "patch": patch,
+            "alpha_r": alpha_r, "unknowns": run.dofs,
             "converged": run.converged, "load": run.load_reached, "message": run.message,
             "R": final.reaction["load"] if final else None, "R_clamp": final.reaction["clamp"] if final else None,
             "gaps": gaps, "min_gap": min((g for _, g in gaps if g is not None), default=None),
@@ -83,13 +87,17 @@ def run_case(grid: str, method: str, scale: float, steps: int, patch: float | No
             "s_per_newton": step_time / newton if newton else None}
 
 
-def _loading(record: dict) -> tuple[str, float, int, float | None]:
-    """(grid, scale, steps, patch) of a record: the cases whose two methods are compared."""
-    return record["grid"], record["scale"], record["steps"], record.get("patch")
+def _loading(record: dict) -> tuple[str, float, int, float | None, float | None]:
+    """(grid, scale, steps, patch, alpha_r) of a record: the cases whose two methods are compared."""
+    return record["grid"], record["scale"], record["steps"], record.get("patch"), record.get("alpha_r")
 
 
 def _patch(patch: float | None) -> str:
     return "corner" if patch is None else f"{patch:g} patch"
+
+
+def _alpha(alpha_r: float | None) -> str:
+    return "10 (demo)" if alpha_r is None else f"{alpha_r:g}"
 
 
 def _vector(v: typing.Sequence[float] | None) -> str:
@@ -104,9 +112,10 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
     """The markdown rows comparing the two methods on each grid and load that has both."""
     rows = []
     keys = sorted({_loading(r) for r in records},
-                  key=lambda k: (k[3] or 0.0, k[1], k[2], [int(n) for n in k[0].split("x")]))
-    for grid, scale, steps, patch in keys:
-        by = {r["method"]: r for r in records if _loading(r) == (grid, scale, steps, patch)}
+                  key=lambda k: (k[3] or 0.0, -1.0 if k[4] is None else k[4], k[1], k[2],
+                                 [int(n) for n in k[0].split("x")]))
+    for grid, scale, steps, patch, alpha_r in keys:
+        by = {r["method"]: r for r in records if _loading(r) == (grid, scale, steps, patch, alpha_r)}
         if set(by) != {"vem", "fem"}:
             continue
         vem, fem = by["vem"], by["fem"]
@@ -116,7 +125,7 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
         closure = [GAP0 - r["min_gap"] if r["min_gap"] is not None else None for r in (vem, fem)]
         diff_closure = abs(closure[0] - closure[1]) / closure[1] if both and None not in closure else None
         ratio = (vem["s_per_newton"] / fem["s_per_newton"]) if vem["s_per_newton"] and fem["s_per_newton"] else None
-        rows.append(f"| {grid} | {_patch(patch)} | {scale:g} | {vem['unknowns']} | {_vector(vem['R'])} | {_vector(fem['R'])} | "
+        rows.append(f"| {grid} | {_patch(patch)} | {_alpha(alpha_r)} | {scale:g} | {vem['unknowns']} | {_vector(vem['R'])} | {_vector(fem['R'])} | "
                     f"{_number(diff, '.2%')} | {_number(diff_z, '.2%')} | {_number(vem['min_gap'], '.4f')} | "
                     f"{_number(fem['min_gap'], '.4f')} | {_number(diff_closure, '.2%')} | "
                     f"{vem['newton']} / {fem['newton']} | {_number(vem['s_per_newton'], '.1f')} / "
@@ -127,29 +136,29 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
 def markdown(records: typing.Sequence[dict], machine: str) -> str:
     """The comparison table, then every case's gaps over its load path."""
     lines = ["# 3D C-box: SFVEM and Q2 FEM on the same hexahedral grids (bench/cbox3d_vem_fem.py)", "",
-             f"Point contact, corner (or a patch at it, 'moved') displaced by (0, 0.25, -1) x scale, Hu-Hu regularization, gamma 1e-5, "
-             f"alpha_r 10; {machine}. R: the internal force at the moved nodes at the last converged step; "
+             "Point contact, the corner (or a patch at it: 'moved') displaced by (0, 0.25, -1) x scale, Hu-Hu "
+             f"regularization of weight alpha_r (0: none), gamma 1e-5; {machine}. R: the internal force at the moved nodes at the last converged step; "
              "difference: |R_vem - R_fem| / |R_fem| (both at the same load), R_z: the same of R_z alone; gap: the "
              "smallest over the converged steps; closure: the relative difference of the gap's closure "
              f"{GAP0:g} - gap; s/it: the steps' wall time per Newton iteration (machine shared with other jobs).", "",
-             "| grid | moved | scale | unknowns | R SFVEM | R Q2 | difference | R_z | gap SFVEM | gap Q2 | closure | "
+             "| grid | moved | alpha_r | scale | unknowns | R SFVEM | R Q2 | difference | R_z | gap SFVEM | gap Q2 | closure | "
              "Newton SFVEM / Q2 | s/it SFVEM / Q2 | ratio |",
-             "|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     lines += comparison_rows(records)
     lines += ["", "Every case: load reached, steps, smallest det F, and the smallest gap at each converged step "
               "(load: gap).", "",
-              "| grid | moved | method | scale | unknowns | load reached | Newton | min J | gaps |",
-              "|---|---|---|---:|---:|---:|---:|---:|---|"]
+              "| grid | moved | alpha_r | method | scale | unknowns | load reached | Newton | min J | gaps |",
+              "|---|---|---:|---|---:|---:|---:|---:|---:|---|"]
     for r in records:
         gaps = ", ".join(f"{load:.3g}: {_number(g, '.4f')}" for load, g in r["gaps"])
-        lines.append(f"| {r['grid']} | {_patch(r.get('patch'))} | {r['method']} | {r['scale']:g} | {r['unknowns']} | {r['load']:.3g} | "
+        lines.append(f"| {r['grid']} | {_patch(r.get('patch'))} | {_alpha(r.get('alpha_r'))} | {r['method']} | {r['scale']:g} | {r['unknowns']} | {r['load']:.3g} | "
                      f"{r['newton']} | {_number(r['min_J'], '.3g')} | {gaps} |")
     return "\n".join(lines) + "\n"
 
 
 def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS[:PATCH]")
+    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS[:patch=S][:alpha_r=A]")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/cbox3d_vem_fem"))
     parser.add_argument("--results", type=pathlib.Path, default=None)
     return parser.parse_args(argv)
@@ -160,10 +169,14 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     store = args.out / "cbox3d_vem_fem.json"
     records = json.loads(store.read_text()) if store.exists() else []
-    done = {(r["grid"], r["method"], r["scale"], r["steps"], r.get("patch")) for r in records}
+    done = {(r["grid"], r["method"], r["scale"], r["steps"], r.get("patch"), r.get("alpha_r")) for r in records}
     for case in args.cases:
-        grid, method, scale, steps, *patch = case.split(":")
-        key = (grid, method, float(scale), int(steps), float(patch[0]) if patch else None)
+        grid, method, scale, steps, *options = case.split(":")
+        named = dict(option.split("=") for option in options)
+        if not set(named) <= {"patch", "alpha_r"}:
+            raise SystemExit(f"{case}: options after STEPS are patch=S and alpha_r=A")
+        key = (grid, method, float(scale), int(steps), *(float(named[k]) if k in named else None
+                                                         for k in ("patch", "alpha_r")))
         if key in done:
             continue
         record = run_case(*key)
