@@ -134,10 +134,13 @@ def _lines(x: np.ndarray, edges: np.ndarray):
 
 
 def _cut_outlines(grid, normal: np.ndarray, origin: np.ndarray):
-    """The lines where the plane (``normal``, ``origin``) crosses the faces of the cells of
-    ``grid`` (cell data ``"cell"``: the cell its cells lie in, :class:`CellOutlines`): the sides of
-    its cut polygons on the boundary of the cut or between the cuts of two cells."""
-    cut = grid.slice(normal=normal, origin=origin)
+    """The lines where the plane (``normal``, ``origin``) cuts the faces of the cells that the cells
+    of ``grid`` lie in (its cell data ``"cell"``, :class:`CellOutlines`): the sides of its cut
+    polygons on the boundary of the cut or between two cells' cuts (None where it cuts nothing).
+    Cut a millionth of the grid's size inside the side that the clip keeps (−``normal``) and put
+    back on the plane, so that a plane along faces cuts the kept cells, not the faces' fans."""
+    unit = normal / np.linalg.norm(normal)
+    cut = grid.slice(normal=unit, origin=origin - 1e-6 * _size(np.asarray(grid.points)) * unit)
     if cut.n_cells == 0:
         return None
     cut = cut.clean(tolerance=1e-9, absolute=False)      # one point where the plane crosses an edge
@@ -147,7 +150,23 @@ def _cut_outlines(grid, normal: np.ndarray, origin: np.ndarray):
     _, first, count = np.unique(key[order], return_index=True, return_counts=True)
     cell = np.asarray(cut.cell_data["cell"])[polygon[order]]
     drawn = (count == 1) | (np.minimum.reduceat(cell, first) != np.maximum.reduceat(cell, first))
-    return _lines(np.asarray(cut.points), sides[order[first[drawn]]])
+    points = np.asarray(cut.points)
+    return _lines(points - np.outer((points - origin) @ unit, unit), sides[order[first[drawn]]])
+
+
+def _add_lines(plotter, drawn, **style) -> None:
+    """Lines (PyVista, or None) into the picture, unless there are none."""
+    if drawn is not None and drawn.n_cells:
+        plotter.add_mesh(drawn, **style)
+
+
+def _add_clipped_outlines(plotter, x: np.ndarray, edges: np.ndarray, grid, normal: np.ndarray,
+                          origin: np.ndarray, **style) -> None:
+    """The outline ``edges`` (k, 2) between the points ``x`` on the side of the clip plane
+    (``normal``, ``origin``) that the clip keeps, and the lines where it cuts the cells of ``grid``
+    (:func:`_cut_outlines`)."""
+    _add_lines(plotter, _lines(x, edges).clip(normal=normal, origin=origin), **style)
+    _add_lines(plotter, _cut_outlines(grid, normal, origin), **style)
 
 
 @contextlib.contextmanager
@@ -260,7 +279,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
         for grid, chosen in ((solids, solid), (medium, ~solid)):
             grid.point_data["point"] = np.arange(points.shape[0])
             grid.cell_data["cell"] = np.asarray(outlines.cell)[chosen]
-        lines = dict(color=EDGE_COLOUR, line_width=1, lighting=False)
+        lines = dict(color=EDGE_COLOUR, line_width=1)
     contact_point, contact_normal = _contact_view(mesh, x, surface, pressure)
     origin, normal = _default_clip(mesh, x, solid, clip_origin if clip_origin is not None else contact_point,
                                    clip_normal, contact_normal)
@@ -280,7 +299,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     plotter.add_mesh(solids, scalars="|u|", cmap="viridis", show_edges=own_edges, edge_color=EDGE_COLOUR,
                      line_width=0.5, scalar_bar_args={**bar, "title": "displacement"})
     if not own_edges:
-        plotter.add_mesh(_lines(x, surface_outlines(solids, outlines, points.shape[0])), **lines)
+        _add_lines(plotter, _lines(x, surface_outlines(solids, outlines, points.shape[0])), **lines)
     plotter.add_mesh(_grid(mesh, points, cells[solid]).extract_feature_edges(45.0), color="#909090", line_width=1)
     plotter.add_title(f"{prefix}: deformed solids (medium hidden)", font_size=14)
     plotter.view_isometric()
@@ -299,20 +318,16 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
                              lighting=False)
             key.append((f"solid, region {tag}", colour))
     if not own_edges:
-        exterior = surface_outlines(solids, outlines, points.shape[0])
-        for drawn in (_lines(x, exterior).clip(normal=normal, origin=origin), _cut_outlines(solids, normal, origin)):
-            if drawn is not None and drawn.n_cells:
-                plotter.add_mesh(drawn, **lines)
+        _add_clipped_outlines(plotter, x, surface_outlines(solids, outlines, points.shape[0]), solids, normal,
+                              origin, **lines)
     if medium.n_cells:
         medium_style = dict(color=MEDIUM_COLOUR, opacity=0.5, line_width=1)
         if own_edges:
             plotter.add_mesh(medium.clip(normal=normal, origin=origin, crinkle=False), style="wireframe",
                              **medium_style)
         else:
-            edges = cells_outlines(mesh, cells[~solid], outlines)
-            for drawn in (_lines(x, edges).clip(normal=normal, origin=origin), _cut_outlines(medium, normal, origin)):
-                if drawn is not None and drawn.n_cells:
-                    plotter.add_mesh(drawn, **medium_style)
+            _add_clipped_outlines(plotter, x, cells_outlines(mesh, cells[~solid], outlines), medium, normal,
+                                  origin, **medium_style)
         key.append(("third medium (edges)", MEDIUM_COLOUR))
     _add_key(plotter, key)
     plotter.add_title(f"{prefix}: cut through the contact, normal {_vector(normal)}", font_size=14)
@@ -345,7 +360,7 @@ def write_pictures_3d(out_dir: str | os.PathLike, prefix: str, mesh, point_displ
     view = contact_normal + 0.35 * normal + 0.25 * across / max(np.linalg.norm(across), 1e-300)
     if not own_edges:     # on the faces towards the camera (the others culled)
         front = loaded.extract_cells(np.flatnonzero(loaded.cell_normals @ view > 0.0))
-        plotter.add_mesh(_lines(x, surface_outlines(front, outlines, points.shape[0])), **{**lines, "color": "#505050"})
+        _add_lines(plotter, _lines(x, surface_outlines(front, outlines, points.shape[0])), **{**lines, "color": "#505050"})
     plotter.camera_position = [tuple(contact_point + 4.0 * view * _size(x)), tuple(contact_point), _up(view)]
     low, high = np.reshape(loaded.bounds, (3, 2)).T
     pad = 0.3 * (high - low).max()
