@@ -68,6 +68,22 @@ def facet_normals(points: np.ndarray, facets: np.ndarray) -> np.ndarray:
     return 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
 
 
+class CellOutlines(typing.NamedTuple):
+    """The cells that the cells of a :class:`CellMesh` subdivide, for drawing: the SFVEM's polyhedra
+    over their fan tetrahedra (:attr:`~dolfinx_sfvem.discretization.Discretization.cell_outlines`).
+
+    Attributes
+    ----------
+    edges : (n_edges, 2) int64
+        The edges of the cells (the sides of their faces), as pairs of the mesh's points.
+    cell : (n_cells of the mesh,) int64
+        The cell that each cell of the mesh lies in.
+    """
+
+    edges: npt.NDArray[np.int64]
+    cell: npt.NDArray[np.int64]
+
+
 class CellMesh:
     """A conforming mesh of one cell type with a region tag per cell (module docstring).
 

@@ -22,7 +22,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .energy import Energy
-from .cell_mesh import CellMesh
+from .cell_mesh import CellMesh, CellOutlines
 from .polygon_mesh import PolygonMesh
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
@@ -407,6 +407,14 @@ class Discretization(abc.ABC):
     def output_mesh(self) -> PolygonMesh | CellMesh:
         """The mesh (identical on all ranks) that pictures and contact checks use: a polygon mesh in
         2D, a :class:`~dolfinx_sfvem.cell_mesh.CellMesh` in 3D."""
+
+    @property
+    def cell_outlines(self) -> CellOutlines | None:
+        """The cells of the discretization as the pictures draw them where :attr:`output_mesh`
+        subdivides them (the SFVEM's polyhedra over their fan tetrahedra): their edges and the cell
+        of every output cell (:class:`~dolfinx_sfvem.cell_mesh.CellOutlines`); None where the
+        output mesh's cells are the discretization's (their own edges drawn)."""
+        return None
 
     @abc.abstractmethod
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:

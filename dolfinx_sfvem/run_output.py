@@ -405,7 +405,8 @@ class RunWriter:
                       if not self.disc.materials[tag].is_medium]
             checked = pressure.pressure.size > 0
             write_pictures_3d(self.out, "final" if final else name, self.disc.output_mesh, u, solids,
-                              surface=surface if checked else None, pressure=pressure.pressure if checked else None)
+                              surface=surface if checked else None, pressure=pressure.pressure if checked else None,
+                              outlines=self.disc.cell_outlines)
             return
         method = self.disc.method
         if final:

@@ -30,7 +30,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 
 from . import _compat
-from .cell_mesh import CellMesh
+from .cell_mesh import CellMesh, CellOutlines
 from .compiled_energy import compile_kernels
 from .discretization import AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials
 from .enclosed_volume import EnclosedVolume
@@ -350,6 +350,14 @@ class PolyhedralDiscretization(OnSFVEMNodes):
     def output_mesh(self) -> CellMesh:
         """The fan tetrahedra (identical on all ranks): pictures and the contact checks."""
         return self._output_mesh
+
+    @property
+    def cell_outlines(self) -> CellOutlines:
+        """The polyhedra over the fan tetrahedra of :attr:`output_mesh`: the edges of
+        :meth:`PolyhedronMesh.edges` (the polyhedron mesh's points are the fan mesh's first) and the
+        polyhedron of every fan tetrahedron."""
+        space = self.space
+        return CellOutlines(space.polyhedron_mesh.edges(), space.fan.tetrahedron_cell)
 
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
         """(fan points (k,), host displacements (k, 3)) of the owned host nodes at fan points."""
