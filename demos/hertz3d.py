@@ -55,27 +55,27 @@ Commands
 --------
 ::
 
-    python3 demos/hertz3d.py --out out/hertz3d      # the documented run: h 0.1, core 0.05, gamma 1e-5
-    mpirun -n 2 python3 demos/hertz3d.py --h-core 0.035 --out out/hertz3d-core0.035   # finer: not run yet
+    python3 demos/hertz3d.py --out out/hertz3d      # h 0.1, core 0.05, gamma 1e-5
+    python3 demos/hertz3d.py --h-core 0.03 --out out/hertz3d-core0.03   # the finest documented run
 
 Measured
 --------
-2026-11-26, 1 rank, on the shared machine at load 7-11 (docs/notes/2026-11-26-hertz3d.md, where every
-number below comes from). The finest documented mesh is the default: h = 0.1 with a 0.05 core
-(25,188 unknowns). gamma = 1e-5: the gap closes at load 0.70 in 1-3 Newton iterations per step;
-contact steps take 6-46 (cut-backs at 0.75 and 0.9); the run was stopped after load 0.9 to leave
-time for the docs (60 min of wall time; load 1 not reached). At load 0.9: F = 0.00777, Hertz's
-a = 0.173 (3.5 core elements), p_max / p0 = 1.006 (+0.6 %), a_p / a_H = 0.997, a_zone / a_H =
-1.145 (node-based, +0.5 element); Hertz's ellipse fitted to the pressure above 30 % of the peak:
-a_fit / a_H = 0.947, p0_fit / p0 = 0.995 (the profile lies a little inside the ellipse at
-mid-radius and has a tail of about one element beyond a); indentation 0.0261 against Hertz's
-0.0300 and 0.0261 after the bottom's settlement. Without the core (h = 0.1, 11,607 unknowns) at about the same
-force (F = 0.00457): p_max / p0 = 0.838, a_p / a_H = 1.092, a_zone / a_H = 1.19; halving the
-size under the contact takes the peak's error from -16 % to -1 %. gamma = 1e-6 (the paper's value)
-was not carried past first contact here: on the cored mesh the first contact step ran 20 minutes
-without an answer and was stopped (not a measured stall). The 3 % target holds at load 0.9 of
-the default run for p_max (and so for a_p) and for p0_fit; the radius measured from the profile's
-shape (a_fit -5.3 %, a_zone +14.5 %) does not meet it at this mesh.
+2026-11-26, 1 rank, on the shared machine (docs/notes/2026-11-26-hertz3d.md, where every number
+below comes from). The finest documented mesh: h = 0.1 with a 0.03 core (39,402 unknowns),
+gamma = 1e-5, to the full load in 21 steps (one cut-back, at 0.95), 49 min at load 3-4. The gap
+closes at load 0.75 (1-3 Newton iterations per step before, 9-26 after). At the full load:
+F = 0.01535, Hertz's a = 0.217 (7 core elements), p_max / p0 = 1.018 (+1.8 %), a_p / a_H = 0.991;
+Hertz's ellipse fitted to the block-top pressure above 30 % of the peak: p0_fit / p0 = 1.029,
+a_fit / a_H = 0.955 (-4.5 %; the profile lies a little inside the ellipse towards its edge);
+a_zone / a_H = 1.070 (node-based, +0.5 element); indentation 0.0401 against Hertz's 0.0472 and
+0.0395 after the clamped bottom's settlement (+1.5 %). With the 0.05 core (25,188 unknowns) at
+load 0.9: p_max / p0 = 1.006, a_fit / a_H = 0.947; without a core (11,607 unknowns) at F = 0.00457:
+p_max / p0 = 0.838. So the peak pressure and the indentation meet 3 %; the radius read from the
+profile's shape approaches Hertz's slowly (-5.3 %, -4.5 %) and does not meet it at this mesh
+(the block's depth, 4.6 a, is not a half-space: not separated here). gamma = 1e-6 (the paper's
+value), continued from 1e-5 (``--gamma-start 1e-5``, about 2e-6 at first contact) on the 0.03
+core: the first contact step (0.725) converged in 19 iterations with the medium at J ~ 1e-4, the
+next failed twice in 60 iterations each (J < 0 in the medium), stopped after 50 min.
 """
 from __future__ import annotations
 
