@@ -19,7 +19,18 @@ def test_differences_of_reaction_and_gap_closure():
     rows = bench.comparison_rows([record("vem", [0.0, 3.3, -4.4], 0.4), record("fem", [0.0, 3.0, -4.0], 0.42)])
     assert len(rows) == 1
     cells = [c.strip() for c in rows[0].strip("|").split("|")]
-    assert cells[5:8] == ["10.00%", "10.00%", "0.4000"] and cells[9] == "25.00%" and cells[-1] == "6.0"
+    assert cells[1:3] == ["corner", "10 (demo)"]
+    assert cells[7:10] == ["10.00%", "10.00%", "0.4000"] and cells[11] == "25.00%" and cells[-1] == "6.0"
+
+
+def test_cases_pair_only_with_the_same_loading():
+    """A patch or alpha_r case of one method is not compared with the other method's corner case."""
+    patch = dict(record("vem", [0.0, 3.3, -4.4], 0.4), patch=0.35)
+    alpha = dict(record("vem", [0.0, 3.3, -4.4], 0.4), alpha_r=0.0)
+    fem = record("fem", [0.0, 3.0, -4.0], 0.42)
+    assert bench.comparison_rows([patch, fem]) == [] and bench.comparison_rows([alpha, fem]) == []
+    rows = bench.comparison_rows([patch, dict(fem, patch=0.35)])
+    assert [c.strip() for c in rows[0].strip("|").split("|")][1:3] == ["0.35 patch", "10 (demo)"]
 
 
 def test_a_grid_with_one_method_has_no_row():
