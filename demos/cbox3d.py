@@ -81,6 +81,16 @@ needs finer grids than were run, and may not come: the reaction of the one presc
 singular in the limit (an in-plane point load on the beam; it fell 8 % with --tip-refinement 2). Compiling the tangent takes ~4-5 min of CPU (13 min for Q2, 47 min
 for P2 on the loaded machine) the first time.
 
+The line contact with a stronger regularization (docs/notes/2026-11-26-cbox3d-line-contact.md), Q2
+(20, 4, 7): alpha_r = 100 reaches load 0.989 (138 Newton iterations in 23 steps), alpha_r = 300
+0.979, both with the smallest gap positive at every step (0.043 and 0.052 at the end); the steps
+beyond invert the solid cell that holds the moved corner node at that node (a displacement
+prescribed at one node crushes its own cell; --tip-refinement 2 only moves that to load 0.87).
+On the 0.35 patch (``--load-patch 0.35``, alpha_r = 100) the corner cell survives and the medium
+under the tip (x = 1.95, z = 0.25) inverts at load 0.905 (gap 0.0056, positive throughout). The
+SFVEM on the same hexahedra (alpha_r = 10) reaches 0.70 with its gap positive (0.026), its steps
+shrinking to 0.003 (43 min).
+
 The SFVEM (``--method vem``) on the same hexahedra read as polyhedra, which then has exactly Q2's
 unknowns: a quarter of the point-contact load in 2 steps, Hu-Hu regularization, gamma = 1e-5,
 alpha_r = 10, 1 rank (``bench/cbox3d_vem_fem.py``; docs/notes/2026-11-26-sfvem-3d-cbox.md).
