@@ -20,10 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import pathlib
-import platform
-import shutil
 import subprocess
 import sys
 import typing
@@ -31,6 +28,7 @@ import typing
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 from dolfinx_sfvem import mpi_launcher  # noqa: E402
+from case_store import CaseStore, machine  # noqa: E402
 
 #: GRID:RANKS:SOLVER of the default run, by priority: the sizes up to 33 k unknowns with both
 #: solvers, dolfiny's grid on 2 ranks, 55 k with both, then the iterative solver's other large cases
@@ -129,11 +127,8 @@ def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
     args = parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    store = args.out / "cbox3d_sizes.json"
-    records = json.loads(store.read_text()) if store.exists() else []
-    done = {(r["grid"], r["ranks"], r["solver"]) for r in records}
-    machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
+    store = CaseStore(args.out, "cbox3d_sizes")
+    done = {(r["grid"], r["ranks"], r["solver"]) for r in store.records}
     for case in args.cases:
         grid, ranks, solver = case.split(":")
         if (grid, int(ranks), solver) in done:
@@ -143,15 +138,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
               f"{record['unknowns']} unknowns, {record['newton_iterations']} Newton its, {per_iteration(record):.1f} s/it",
               flush=True)
         if record:
-            records.append(record)
-            store.write_text(json.dumps(records, indent=1))
-            (args.out / "cbox3d_sizes.md").write_text(markdown(records, machine))
-    (args.out / "cbox3d_sizes.md").write_text(markdown(records, machine))
-    if args.results:
-        for name in ("cbox3d_sizes.json", "cbox3d_sizes.md"):
-            shutil.copy(args.out / name, args.results / name)
+            store.add(record)
+            store.write(markdown(store.records, machine()))
+    store.write(markdown(store.records, machine()), args.results)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -31,10 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import pathlib
-import platform
-import shutil
 import sys
 import time
 import typing
@@ -48,6 +45,7 @@ sys.path.insert(0, str(HERE.parent / "demos"))
 import cbox3d  # noqa: E402
 from dolfinx_sfvem.benchmarks3d import CBOX3D_H, CBOX3D_T  # noqa: E402
 from dolfinx_sfvem.run_summary import RunSummary  # noqa: E402
+from case_store import CaseStore, machine  # noqa: E402
 
 #: the initial gap between the beams (height less two walls)
 GAP0 = CBOX3D_H - 2 * CBOX3D_T
@@ -166,10 +164,8 @@ def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
     args = parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    store = args.out / "cbox3d_vem_fem.json"
-    records = json.loads(store.read_text()) if store.exists() else []
-    done = {(r["grid"], r["method"], r["scale"], r["steps"], r.get("patch"), r.get("alpha_r")) for r in records}
+    store = CaseStore(args.out, "cbox3d_vem_fem")
+    done = {(r["grid"], r["method"], r["scale"], r["steps"], r.get("patch"), r.get("alpha_r")) for r in store.records}
     for case in args.cases:
         grid, method, scale, steps, *options = case.split(":")
         named = dict(option.split("=") for option in options)
@@ -181,15 +177,9 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
             continue
         record = run_case(*key)
         print(case, json.dumps(record), flush=True)
-        records.append(record)
-        store.write_text(json.dumps(records, indent=1))
-    machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
-    (args.out / "cbox3d_vem_fem.md").write_text(markdown(records, machine))
-    if args.results:
-        for name in ("cbox3d_vem_fem.json", "cbox3d_vem_fem.md"):
-            shutil.copy(args.out / name, args.results / name)
+        store.add(record)
+    store.write(markdown(store.records, machine()), args.results)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -18,10 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import pathlib
-import platform
-import shutil
 import subprocess
 import sys
 import typing
@@ -29,6 +26,7 @@ import typing
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 from dolfinx_sfvem import mpi_launcher  # noqa: E402
+from case_store import CaseStore, machine  # noqa: E402
 
 #: grid:ranks:solver of the default run (grids whose walls are whole cells: nx in 20 k, nz in 7 k):
 #: the direct solver up to where it takes minutes
@@ -86,10 +84,8 @@ def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: typing.Sequence[str] | None = None) -> int:
     args = parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    store = args.out / "solvers3d.json"
-    records = json.loads(store.read_text()) if store.exists() else []
-    done = {(r["grid"], r["ranks"], r["solver"], r["state"]) for r in records}
+    store = CaseStore(args.out, "solvers3d")
+    done = {(r["grid"], r["ranks"], r["solver"], r["state"]) for r in store.records}
     for case in args.cases:
         grid, ranks, solver = case.split(":")
         if (grid, int(ranks), solver, args.state) in done:
@@ -97,15 +93,9 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         record = run_case(args.out, grid, int(ranks), solver, args.state)
         print(case, record if record else "FAILED (see its log)", flush=True)
         if record:
-            records.append(record)
-            store.write_text(json.dumps(records, indent=1))
-    machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
-    (args.out / "solvers3d.md").write_text(markdown(records, machine))
-    if args.results:
-        for name in ("solvers3d.json", "solvers3d.md"):
-            shutil.copy(args.out / name, args.results / name)
+            store.add(record)
+    store.write(markdown(store.records, machine()), args.results)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())
