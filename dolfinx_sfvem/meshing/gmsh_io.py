@@ -17,20 +17,24 @@ from ..polygon_mesh import PolygonMesh
 from .polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
 
 
+_sessions_opened = 0  # gmsh sessions opened by gmsh_session and not yet finalised
+
+
 @contextlib.contextmanager
 def gmsh_session() -> Iterator[object]:
     """A quiet gmsh model of our own; yields the gmsh module.
 
     If the caller has no gmsh session open, one is initialised and finalised here. If the
     caller's session is open, it is left open: a new model is added and removed afterwards,
-    and the caller's current model and terminal option are restored.
+    and the caller's current model and terminal option are restored. (gmsh 4.8, which cannot
+    say whether it is initialised, counts an open session with one empty unnamed model as
+    nobody's and finalises it.)
     """
     import gmsh
 
-    ours = not _gmsh_initialized(gmsh)
-    if ours:
-        newer = "interruptible" in inspect.signature(gmsh.initialize).parameters  # newer gmsh: skip its SIGINT handler
-        gmsh.initialize(readConfigFiles=False, **({"interruptible": False} if newer else {}))
+    global _sessions_opened
+    ours = _sessions_opened == 0 and _open_session(gmsh)
+    _sessions_opened += ours
     previous, terminal = gmsh.model.getCurrent(), gmsh.option.getNumber("General.Terminal")
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -39,6 +43,7 @@ def gmsh_session() -> Iterator[object]:
         yield gmsh
     finally:
         if ours:
+            _sessions_opened -= 1
             gmsh.finalize()
         else:
             gmsh.model.remove()
@@ -47,15 +52,22 @@ def gmsh_session() -> Iterator[object]:
             gmsh.option.setNumber("General.Terminal", terminal)
 
 
-def _gmsh_initialized(gmsh) -> bool:
-    """Whether a gmsh session is open (gmsh 4.8 has no ``isInitialized``: it lists no model
-    before the first initialisation and raises after a finalisation)."""
+def _open_session(gmsh) -> bool:
+    """Initialise gmsh unless a session is open; whether this call opened one.
+
+    No gmsh function but ``initialize`` and ``isInitialized`` is called before the session is
+    known to be open: gmsh 4.8 may ``exit()`` the process when asked anything before it is
+    initialised, and has no ``isInitialized``. Its ``initialize`` is harmless on an open session
+    (a warning), after which a fresh session is told apart by its single empty unnamed model.
+    """
     if hasattr(gmsh, "isInitialized"):
-        return bool(gmsh.isInitialized())
-    try:
-        return len(gmsh.model.list()) > 0
-    except Exception:
-        return False
+        if gmsh.isInitialized():
+            return False
+        newer = "interruptible" in inspect.signature(gmsh.initialize).parameters  # skip its SIGINT handler
+        gmsh.initialize(readConfigFiles=False, **({"interruptible": False} if newer else {}))
+        return True
+    gmsh.initialize(readConfigFiles=False)
+    return gmsh.model.list() == [""] and not gmsh.model.getEntities()
 
 
 def entity_regions(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) -> dict[int, int]:
