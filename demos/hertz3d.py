@@ -30,12 +30,14 @@ Against Hertz
 -------------
 ``exact.hertz_sphere``: with F = 4 x the quarter's contact force (the medium's force on the block),
 a = (3 F R / (4 E*))^(1/3), p0 = 3 F / (2 pi a^2), delta = a^2 / R, 1/E* = (1 - nu^2)/E (1 + 1/stiffness).
-The contact radius is measured three ways from the contact pressure field: ``a_zone`` from the
+The contact radius is measured four ways from the contact pressure field: ``a_zone`` from the
 deformed area A of the quarter contact zone (pressure above 1 % of the peak), a = sqrt(4 A / pi)
 (node-based: it over-estimates a by up to one element); ``a_p = sqrt(3 F / (2 pi p_max))``, the
 radius Hertz's profile would have with the measured peak (a_p / a = sqrt(p0 / p_max): the peak's
 error halved); and, at the last state, ``a_fit`` and ``p0_fit`` of Hertz's ellipse fitted to the
-block-top pressure above 30 % of the peak (least squares of p^2 against r^2). The indentation is
+block-top pressure above 30 % of the peak (least squares of p^2 against r^2), and ``a_m`` from the
+pressure's second moment within 2 a of the axis, a_m^2 = 5/2 int p r^2 dA / int p dA (exact for
+Hertz's profile; reported with the value Hertz's profile gives on the same nodes). The indentation is
 the approach of the sphere's top and the block's bottom less the closure of the gap,
 delta = -u_z(top) - (gap - smallest gap); Hertz's delta is the approach of remote points of a
 half-space, so the table and plot also give it less Boussinesq's settlement of the axis at the
@@ -47,7 +49,7 @@ Per step the load factor, Newton iterations, reactions; at the end the last cont
 ``--out``, besides summary.json, load_path.csv, displacement.xdmf and the 3D pictures of the last
 state (``final-deformed.png``, ``final-clip.png``, ``final-pressure.png``): hertz3d.md (per
 converged step in contact: F, delta, Hertz's delta with and without the bottom's settlement,
-a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit and p0_fit), pressure.csv
+a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit, p0_fit and a_m), pressure.csv
 (radius and pressure of the block's top nodes at the last state), hertz3d.png (force against
 indentation with Hertz's curves; pressure against radius with Hertz's profile).
 
@@ -72,7 +74,11 @@ a_zone / a_H = 1.070 (node-based, +0.5 element); indentation 0.0401 against Hert
 load 0.9: p_max / p0 = 1.006, a_fit / a_H = 0.947; without a core (11,607 unknowns) at F = 0.00457:
 p_max / p0 = 0.838. So the peak pressure and the indentation meet 3 %; the radius read from the
 profile's shape approaches Hertz's slowly (-5.3 %, -4.5 %) and does not meet it at this mesh
-(the block's depth, 4.6 a, is not a half-space: not separated here). gamma = 1e-6 (the paper's
+(the block's depth, 4.6 a, is not a half-space: not separated here), while the radius from the
+pressure's second moment within 2 a does: a_m / a_H = 1.005 (Hertz's profile on the same nodes:
+1.001). The computed profile is a little above Hertz's inside and falls early over the last
+element, leaving a tail the medium carries (1.9 % of the force beyond a_H): the fit of the shape
+reads the early fall as a smaller radius, the moment weighs it against the tail. gamma = 1e-6 (the paper's
 value), continued from 1e-5 (``--gamma-start 1e-5``, about 2e-6 at first contact) on the 0.03
 core: the first contact step (0.725) converged in 19 iterations with the medium at J ~ 1e-4, the
 next failed twice in 60 iterations each (J < 0 in the medium), stopped after 50 min.
@@ -102,6 +108,8 @@ NU = (3 * K - 2 * MU) / (2 * (3 * K + MU))
 TOUCHING = 0.05
 #: :func:`ellipse_fit` uses the block-top nodes whose pressure is at least this fraction of the peak
 FIT_FRACTION = 0.3
+#: the second-moment radius counts the pressure within this many Hertz radii of the axis
+MOMENT_WINDOW = 2.0
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -192,9 +200,9 @@ def hertz_rows(summary: RunSummary, block: int, gap: float, stiffness: float) ->
     return rows
 
 
-def write_table(rows: list[dict[str, float]], fit: tuple[float, float], path, title: str) -> None:
-    """The rows of :func:`hertz_rows` as a Markdown table, and the last state's :func:`ellipse_fit`
-    against Hertz."""
+def write_table(rows: list[dict[str, float]], last: dict[str, float], path, title: str) -> None:
+    """The rows of :func:`hertz_rows` as a Markdown table, and the last state's radii ``last`` of
+    :func:`last_state_radii` against Hertz."""
     lines = [f"# {title}", "", "| load | F | delta | delta Hertz | Hertz - bottom | a_zone | a_p | a Hertz "
              "| a_zone/a_H | a_p/a_H | p_max | p0 Hertz | p_max/p0 | smallest gap | F / reaction |", "|" + "---|" * 15]
     for r in rows:
@@ -206,21 +214,61 @@ def write_table(rows: list[dict[str, float]], fit: tuple[float, float], path, ti
     if rows:
         r = rows[-1]
         lines += ["", f"Last state, Hertz's ellipse fitted to the block-top pressure above {FIT_FRACTION:g} of the "
-                      f"peak: a_fit = {fit[0]:.4f} (a_fit/a_H = {fit[0] / r['a_H']:.3f}), p0_fit = {fit[1]:.4g} "
-                      f"(p0_fit/p0 = {fit[1] / r['p0_H']:.3f})"]
+                      f"peak: a_fit = {last['a_fit']:.4f} (a_fit/a_H = {last['a_fit'] / r['a_H']:.3f}), "
+                      f"p0_fit = {last['p0_fit']:.4g} (p0_fit/p0 = {last['p0_fit'] / r['p0_H']:.3f}); from the "
+                      f"pressure's second moment within {MOMENT_WINDOW:g} a_H: a_m = {last['a_m']:.4f} (a_m/a_H = {last['a_m'] / r['a_H']:.3f}; "
+                      f"Hertz's profile on the same nodes gives {last['a_m_H']:.4f}, ratio "
+                      f"{last['a_m'] / last['a_m_H']:.3f})"]
     path.write_text("\n".join(lines) + "\n")
 
 
-def block_top_pressure(pressure: sf.ContactPressure, block: int) -> np.ndarray:
-    """(n, 2) deformed radius and pressure of the block's top nodes facing the sphere, by radius."""
+def block_top_nodes(pressure: sf.ContactPressure, block: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) deformed x, y and (n,) pressure of the block's top nodes facing the sphere."""
     on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
-    rp = np.stack([np.hypot(pressure.x[on_top, 0], pressure.x[on_top, 1]), pressure.pressure[on_top]], axis=1)
+    return pressure.x[on_top, :2], pressure.pressure[on_top]
+
+
+def radial_profile(xy: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(n, 2) radius and pressure of the nodes at ``xy`` (n, 2) with pressure ``p`` (n,), by radius."""
+    rp = np.stack([np.hypot(xy[:, 0], xy[:, 1]), p], axis=1)
     return rp[np.argsort(rp[:, 0])]
+
+
+#: degree-3 rule on the triangle: barycentric points and weights (summing to 1)
+_TRI3_POINTS = np.array([[1 / 3, 1 / 3, 1 / 3], [0.6, 0.2, 0.2], [0.2, 0.6, 0.2], [0.2, 0.2, 0.6]])
+_TRI3_WEIGHTS = np.array([-27 / 48, 25 / 48, 25 / 48, 25 / 48])
+
+
+def moment_radius(xy: np.ndarray, p: np.ndarray, within: float = math.inf) -> float:
+    """Contact radius from the pressure's second moment, a_m = sqrt(5/2 int p r^2 dA / int p dA),
+    over the nodes within radius ``within`` of the axis.
+
+    For Hertz's profile p0 sqrt(1 - r^2 / a^2), int p r^2 dA / int p dA = 2 a^2 / 5, so a_m = a
+    exactly; unlike a threshold (a_zone) or a fit of the profile's shape (a_fit), it weighs every
+    node by its share of the force, so a smoothed edge of the zone hardly moves it, while the r^2
+    weight makes it sensitive to the medium's small pressure far outside the zone (hence
+    ``within``). The nodal pressure ``p`` at the points ``xy`` (n, 2) (deformed, any quarter or
+    whole plane around the axis) is interpolated linearly on their Delaunay triangulation and
+    integrated exactly. NaN without pressure.
+    """
+    from scipy.spatial import Delaunay
+
+    keep = np.hypot(xy[:, 0], xy[:, 1]) <= within
+    xy, p = xy[keep], p[keep]
+    triangles = Delaunay(xy).simplices                                     # (m, 3)
+    corners = xy[triangles]                                                # (m, 3, 2)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    points = np.einsum("qk,mkd->mqd", _TRI3_POINTS, corners)               # (m, q, 2)
+    pq = _TRI3_POINTS @ p[triangles].T                                     # (q, m)
+    force = np.sum(area * (_TRI3_WEIGHTS @ pq))
+    second = np.sum(area * np.einsum("q,qm,mq->m", _TRI3_WEIGHTS, pq, np.sum(points ** 2, axis=2)))
+    return math.sqrt(2.5 * second / force) if force > 0.0 else math.nan
 
 
 def ellipse_fit(rp: np.ndarray, fraction: float = FIT_FRACTION) -> tuple[float, float]:
     """(a, p0) of Hertz's profile p = p0 sqrt(1 - r^2 / a^2) fitted to the block-top pressure ``rp``
-    (rows r, p of :func:`block_top_pressure`): least squares of p^2 = p0^2 - (p0 / a)^2 r^2 over the
+    (rows r, p of :func:`radial_profile`): least squares of p^2 = p0^2 - (p0 / a)^2 r^2 over the
     nodes with p at least ``fraction`` of the largest (the edge of the zone, where the pressure falls
     to zero over the last element, left out). NaNs if fewer than three nodes qualify."""
     r, pressure = rp[rp[:, 1] >= fraction * rp[:, 1].max(initial=0.0)].T
@@ -230,6 +278,21 @@ def ellipse_fit(rp: np.ndarray, fraction: float = FIT_FRACTION) -> tuple[float, 
     if intercept <= 0.0 or slope >= 0.0:
         return math.nan, math.nan
     return math.sqrt(-intercept / slope), math.sqrt(intercept)
+
+
+def last_state_radii(xy: np.ndarray, p: np.ndarray, row: dict[str, float] | None) -> dict[str, float]:
+    """The last state's ``a_fit``, ``p0_fit`` (:func:`ellipse_fit`), and with the last row's Hertz
+    radius a_H: ``a_m`` (:func:`moment_radius` within ``MOMENT_WINDOW`` a_H) and ``a_m_H``, the
+    same of Hertz's profile on the same nodes (what the nodes' linear interpolation makes of an
+    exact answer)."""
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    a_fit, p0_fit = ellipse_fit(np.stack([r, p], axis=1))
+    if row is None:
+        return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": math.nan, "a_m_H": math.nan}
+    within = MOMENT_WINDOW * row["a_H"]
+    hertz_p = row["p0_H"] * np.sqrt(np.clip(1 - (r / row["a_H"]) ** 2, 0.0, None))
+    return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": moment_radius(xy, p, within),
+            "a_m_H": moment_radius(xy, hertz_p, within)}
 
 
 def plot(rp: np.ndarray, rows: list[dict[str, float]], stiffness: float, path, title: str) -> None:
@@ -270,17 +333,19 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
     if problem.comm.rank == 0:
         block = block_body(pressure)
         rows = hertz_rows(read_summary(args.out), block, args.gap, args.stiffness)
-        rp = block_top_pressure(pressure, block)
+        xy, p = block_top_nodes(pressure, block)
+        rp = radial_profile(xy, p)
         with open(args.out / "pressure.csv", "w", newline="") as f:
             csv.writer(f).writerows([["r", "p"], *rp.tolist()])
-        fit = ellipse_fit(rp)
-        write_table(rows, fit, args.out / "hertz3d.md", title)
+        last = last_state_radii(xy, p, rows[-1] if rows else None)
+        write_table(rows, last, args.out / "hertz3d.md", title)
         if rows:
             plot(rp, rows, args.stiffness, args.out / "hertz3d.png", title)
             r = rows[-1]
             print(f"final: load {r['load']:.4g}, F {r['F']:.5g}, delta {r['delta']:.4f} (Hertz {r['delta_H']:.4f}), "
-                  f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f}, a_fit {fit[0]:.4f} (Hertz {r['a_H']:.4f}), "
-                  f"p_max {r['p_max']:.4g}, p0_fit {fit[1]:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}",
+                  f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f}, a_fit {last['a_fit']:.4f}, a_m {last['a_m']:.4f} "
+                  f"(Hertz {r['a_H']:.4f}; {last['a_m_H']:.4f} on the same nodes), "
+                  f"p_max {r['p_max']:.4g}, p0_fit {last['p0_fit']:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}",
                   flush=True)
         else:
             print("final: no contact reached", flush=True)

@@ -37,6 +37,26 @@ def test_ellipse_fit_recovers_hertz_profile():
     assert all(math.isnan(v) for v in hertz3d.ellipse_fit(np.array([[0.0, 1.0], [0.1, 0.5]])))
 
 
+def test_moment_radius_of_hertz_profile():
+    """The pressure's second moment gives Hertz's a from scattered nodes of a quarter plane (zeros
+    outside the zone included), to the linear interpolation's error, for any a, and a small far
+    pressure moves it unless it lies beyond ``within``; a pressure uniform
+    on a disc of radius a (second moment a^2 / 2) gives sqrt(5/4) a."""
+    rng = np.random.default_rng(2)
+    xy = np.concatenate([rng.uniform(0.0, 0.6, (20000, 2)), [[0.0, 0.0], [0.6, 0.0], [0.0, 0.6], [0.6, 0.6]]])
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    for a in (0.15, 0.25):
+        p = 0.14 * np.sqrt(np.clip(1 - (r / a) ** 2, 0.0, None))
+        assert hertz3d.moment_radius(xy, p) == pytest.approx(a, rel=0.01)
+        tail = p + 1e-2 * 0.14 * (r > 0.52)                         # a small far pressure, beyond 2 a
+        assert hertz3d.moment_radius(xy, tail) > 1.03 * a
+        assert hertz3d.moment_radius(xy, tail, within=2 * a) == pytest.approx(a, rel=0.01)
+    fine = np.stack(np.meshgrid(np.linspace(0, 0.6, 241), np.linspace(0, 0.6, 241)), axis=-1).reshape(-1, 2)
+    disc = (np.hypot(fine[:, 0], fine[:, 1]) <= 0.2).astype(float)
+    assert hertz3d.moment_radius(fine, disc) == pytest.approx(math.sqrt(1.25) * 0.2, rel=0.01)
+    assert math.isnan(hertz3d.moment_radius(fine, np.zeros(len(fine))))
+
+
 @pytest.fixture(scope="module")
 def coarse_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("hertz3d")
