@@ -49,7 +49,8 @@ Per step the load factor, Newton iterations, reactions; at the end the last cont
 ``--out``, besides summary.json, load_path.csv, displacement.xdmf and the 3D pictures of the last
 state (``final-deformed.png``, ``final-clip.png``, ``final-pressure.png``): hertz3d.md (per
 converged step in contact: F, delta, Hertz's delta with and without the bottom's settlement,
-a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit, p0_fit and a_m), pressure.csv
+a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit, p0_fit and a_m), the same
+in hertz3d.json (``rows``: per step, ``last``: the last state's radii), pressure.csv
 (radius and pressure of the block's top nodes at the last state), hertz3d.png (force against
 indentation with Hertz's curves; pressure against radius with Hertz's profile).
 
@@ -87,6 +88,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import sys
 import typing
@@ -125,9 +127,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--h-far", type=common.positive_float, default=0.4, help="mesh size away from the contact")
     p.add_argument("--fine-radius", type=common.positive_float, default=0.5,
                    help="radius about the contact point meshed with size --h (default %(default)s)")
-    p.add_argument("--h-core", type=common.positive_float, default=0.05,
+    p.add_argument("--h-core", type=common.non_negative_float, default=0.05,
                    help="mesh size within --core-radius of the contact point: the squeezed medium layer and "
-                        "the contact zone, < --h (default %(default)s)")
+                        "the contact zone, < --h; 0: no core (default %(default)s)")
     p.add_argument("--block", choices=("tetrahedra", "octree"), default="tetrahedra",
                    help="the block's mesh: gmsh tetrahedra like the rest, or an octree of cubes refined toward "
                         "the contact (polyhedra with hanging vertices; needs --method vem) (default %(default)s)")
@@ -142,7 +144,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
         raise ValueError("--block octree needs --method vem (the octree's cubes with hanging vertices are polyhedra)")
     mesher = sf.meshes.hertz3d_octree if args.block == "octree" else sf.meshes.hertz3d
     bench = mesher(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius,
-                   h_core=args.h_core, core_radius=args.core_radius)
+                   h_core=args.h_core or None, core_radius=args.core_radius)
     s = args.stiffness
     medium = sf.ThirdMedium(mu=MU, K=K, gamma=args.gamma, alpha_r=args.alpha_r,
                             regularization=args.regularization, beta=args.beta)
@@ -339,6 +341,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
             csv.writer(f).writerows([["r", "p"], *rp.tolist()])
         last = last_state_radii(xy, p, rows[-1] if rows else None)
         write_table(rows, last, args.out / "hertz3d.md", title)
+        (args.out / "hertz3d.json").write_text(json.dumps({"rows": rows, "last": last}, indent=1))
         if rows:
             plot(rp, rows, args.stiffness, args.out / "hertz3d.png", title)
             r = rows[-1]

@@ -4,6 +4,7 @@ asserted: at the meshes a test can afford the contact radius is below one elemen
 docs/notes/2026-11-26-demos3d.md.)"""
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -67,7 +68,7 @@ def coarse_run(tmp_path_factory):
 def test_coarse_run_into_contact(coarse_run):
     code, out = coarse_run
     assert code == 0
-    for name in ("hertz3d.md", "hertz3d.png", "pressure.csv", "summary.json", "final-pressure.png"):
+    for name in ("hertz3d.md", "hertz3d.json", "hertz3d.png", "pressure.csv", "summary.json", "final-pressure.png"):
         assert (out / name).is_file(), name
     summary = read_summary(out)
     last = summary.final_step
@@ -79,3 +80,6 @@ def test_coarse_run_into_contact(coarse_run):
     assert sum(r[2] for r in last.reaction.values()) == pytest.approx(0.0, abs=1e-6 * F_quarter)
     assert min(c["gap"] for s in summary.converged_steps for c in s.contact) > 0.0
     assert F_quarter > 0.0 and block["zone_length"] > 0.0 and block["max_pressure"] > 0.0
+    record = json.loads((out / "hertz3d.json").read_text())       # the table's numbers, for bench/
+    assert record["rows"][-1]["F"] == pytest.approx(4 * F_quarter, rel=2e-3)
+    assert set(record["last"]) == {"a_fit", "p0_fit", "a_m", "a_m_H"} and record["last"]["a_m"] > 0.0
