@@ -2,13 +2,14 @@
 
 Usage::
 
-    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS[:patch=S][:alpha_r=A] ...] [--out DIR] [--results DIR]
+    python3 bench/cbox3d_vem_fem.py [--cases GRID:METHOD:SCALE:STEPS[:patch=S|end][:alpha_r=A] ...] [--out DIR] [--results DIR]
     python3 bench/cbox3d_vem_fem.py --results bench      # the measured cases
 
 Every case builds ``demos/cbox3d.py``'s problem (:func:`cbox3d.build`) on the ``NXxNYxNZ`` grid of
 hexahedra (``--cell hexahedron``: Q2 for ``fem``; for ``vem`` the same cells read as polyhedra,
 whose SFVEM unknowns are exactly Q2's), point contact, the corner's displacement times ``SCALE``
-(with ``patch=S``: the ``--load-patch`` square of side S at the corner, a finite reaction where the
+(with ``patch=S``: the ``--load-patch`` square of side S at the corner, with ``patch=end`` the
+upper beam's end face (``--load-end``), each a finite reaction where the
 corner alone has none in 3D; docs/notes/2026-11-26-cbox3d-tet-hex.md) reached in ``STEPS`` load steps (adaptive, as the demo), the Hu-Hu regularization (the demo's
 default, the rotation regularization, compiles for minutes in 3D), gamma the demo's default (1e-5),
 alpha_r the demo's (10) unless ``alpha_r=A`` (0: the neo-Hookean medium alone), and solves it in this process, one case after the other. The default cases
@@ -55,12 +56,14 @@ DEFAULT_CASES = tuple(f"{grid}:{method}:{load}" for grid, load in
                        ("40x4x14", "0.25:2"), ("20x1x7", "1:10")) for method in ("fem", "vem"))
 
 
-def run_case(grid: str, method: str, scale: float, steps: int, patch: float | None = None,
+def run_case(grid: str, method: str, scale: float, steps: int, patch: float | str | None = None,
              alpha_r: float | None = None) -> dict:
     """Build and solve one case in this process (MPI.COMM_SELF); its record."""
     argv = ["--n", *grid.split("x"), "--cell", "hexahedron", "--contact", "point", "--scale", str(scale),
             "--steps", str(steps), "--regularization", "huhu", "--method", method, "--quiet"]
-    if patch is not None:
+    if patch == "end":
+        argv += ["--load-end"]
+    elif patch is not None:
         argv += ["--load-patch", str(patch)]
     if alpha_r is not None:
         argv += ["--alpha-r", str(alpha_r)]
@@ -90,8 +93,12 @@ def _loading(record: dict) -> tuple[str, float, int, float | None, float | None]
     return record["grid"], record["scale"], record["steps"], record.get("patch"), record.get("alpha_r")
 
 
-def _patch(patch: float | None) -> str:
-    return "corner" if patch is None else f"{patch:g} patch"
+def _patch(patch: float | str | None) -> str:
+    return "corner" if patch is None else "end face" if patch == "end" else f"{patch:g} patch"
+
+
+def _patch_order(patch: float | str | None) -> tuple[int, float]:
+    return (0, 0.0) if patch is None else (2, 0.0) if patch == "end" else (1, patch)
 
 
 def _alpha(alpha_r: float | None) -> str:
@@ -110,7 +117,7 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
     """The markdown rows comparing the two methods on each grid and load that has both."""
     rows = []
     keys = sorted({_loading(r) for r in records},
-                  key=lambda k: (k[3] or 0.0, -1.0 if k[4] is None else k[4], k[1], k[2],
+                  key=lambda k: (_patch_order(k[3]), -1.0 if k[4] is None else k[4], k[1], k[2],
                                  [int(n) for n in k[0].split("x")]))
     for grid, scale, steps, patch, alpha_r in keys:
         by = {r["method"]: r for r in records if _loading(r) == (grid, scale, steps, patch, alpha_r)}
@@ -156,7 +163,7 @@ def markdown(records: typing.Sequence[dict], machine: str) -> str:
 
 def parse_args(argv: typing.Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS[:patch=S][:alpha_r=A]")
+    parser.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="NXxNYxNZ:METHOD:SCALE:STEPS[:patch=S|end][:alpha_r=A]")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/cbox3d_vem_fem"))
     parser.add_argument("--results", type=pathlib.Path, default=None)
     return parser.parse_args(argv)
@@ -170,9 +177,10 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         grid, method, scale, steps, *options = case.split(":")
         named = dict(option.split("=") for option in options)
         if not set(named) <= {"patch", "alpha_r"}:
-            raise SystemExit(f"{case}: options after STEPS are patch=S and alpha_r=A")
-        key = (grid, method, float(scale), int(steps), *(float(named[k]) if k in named else None
-                                                         for k in ("patch", "alpha_r")))
+            raise SystemExit(f"{case}: options after STEPS are patch=S (or patch=end) and alpha_r=A")
+        patch = named.get("patch")
+        key = (grid, method, float(scale), int(steps), patch if patch in (None, "end") else float(patch),
+               float(named["alpha_r"]) if "alpha_r" in named else None)
         if key in done:
             continue
         record = run_case(*key)

@@ -27,6 +27,9 @@ auxiliary fields, with weights of order one not scaled by gamma, i.e. a far stif
 regularization than alpha_r = 10). Face x = 0 clamped; the corner (2, 0, 0.7) moved by
 (u_y, u_z) = (0.25, -1.0) ("point contact", ``--contact point``, default) or (0.5, -2.0) ("line
 contact"), times ``--scale`` (default 1) and the load factor; its u_x is free, as in dolfiny.
+``--load-patch S`` moves the S x S square of the top face at the corner instead, ``--load-end`` the
+upper beam's whole end face x = 2: their reactions stay finite under refinement, where the
+corner's vanishes (for comparing discretizations).
 ``--method vem``: the SFVEM on the cells read as polyhedra. ``--linear-solver iterative``
 (GMRES + p-multigrid) for grids beyond about 5e4 unknowns (bench/cbox3d_sizes.md).
 
@@ -161,6 +164,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--load-patch", type=common.positive_float, default=None, metavar="S",
                    help="move the S x S square of the top face at the corner instead of the corner alone "
                         "(a finite reaction under refinement; default: the corner, as dolfiny)")
+    p.add_argument("--load-end", action="store_true",
+                   help="move the upper beam's whole end face x = 2, z >= 0.6 instead of the corner (a finite "
+                        "reaction whose only singularities are at the face's edges)")
     p.add_argument("--linear-solver", choices=tuple(LINEAR_SOLVERS), default="direct",
                    help="the Newton steps' linear solver: MUMPS LDL^T or GMRES + p-multigrid, for large grids "
                         "(docs/guide/solving.md; default %(default)s)")
@@ -181,8 +187,11 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
     problem.fix(box.marker("clamp"), name="clamp")
     tip = common.at_point(box.points["load"])
     uy, uz = (args.scale * u for u in CONTACTS[args.contact])
-    problem.prescribe(tip if args.load_patch is None else corner_patch(box.points["load"], args.load_patch),
-                      uy=uy, uz=uz, name="load")   # u_x free, as in dolfiny
+    if args.load_end and args.load_patch is not None:
+        raise ValueError("cbox3d: give --load-patch or --load-end, not both")
+    moved = (end_face(box.points["load"]) if args.load_end else
+             tip if args.load_patch is None else corner_patch(box.points["load"], args.load_patch))
+    problem.prescribe(moved, uy=uy, uz=uz, name="load")   # u_x free, as in dolfiny
     observers = {f"tip_u{c}": common.displacement_observer(problem, tip, i) for i, c in enumerate("xyz")}
     return problem, observers
 
@@ -195,6 +204,12 @@ def corner_patch(corner, size: float, tol: float = 1e-10):
     cells around it; over a patch of fixed size it converges."""
     x0, y0, z0 = corner
     return lambda x: (x[0] >= x0 - size - tol) & (x[1] <= y0 + size + tol) & (np.abs(x[2] - z0) <= tol)
+
+
+def end_face(corner, tol: float = 1e-10):
+    """Marker of the upper beam's end face x = corner_x, z >= corner_z - wall thickness."""
+    x0, _, z0 = corner
+    return lambda x: (np.abs(x[0] - x0) <= tol) & (x[2] >= z0 - CBOX3D_T - tol)
 
 
 def plot_curves(out, title: str) -> None:

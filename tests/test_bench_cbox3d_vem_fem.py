@@ -31,6 +31,9 @@ def test_cases_pair_only_with_the_same_loading():
     assert bench.comparison_rows([patch, fem]) == [] and bench.comparison_rows([alpha, fem]) == []
     rows = bench.comparison_rows([patch, dict(fem, patch=0.35)])
     assert [c.strip() for c in rows[0].strip("|").split("|")][1:3] == ["0.35 patch", "10 (demo)"]
+    end = [dict(record(m, R, 0.4), patch="end") for m, R in (("vem", [0.0, 3.3, -4.4]), ("fem", [0.0, 3.0, -4.0]))]
+    rows = bench.comparison_rows([patch, dict(fem, patch=0.35), *end, fem, record("vem", [0.0, 3.3, -4.4], 0.4)])
+    assert [[c.strip() for c in row.strip("|").split("|")][1] for row in rows] == ["corner", "0.35 patch", "end face"]
 
 
 def test_a_grid_with_one_method_has_no_row():

@@ -107,3 +107,23 @@ def test_tetrahedra_and_hexahedra_agree_under_a_patch_load():
         np.linalg.norm(tet - hexa) / np.linalg.norm(hexa)
     plain = [load_reaction(cell, True, "--alpha-r", "0") for cell in ("hexahedron", "tetrahedron")]
     assert abs(plain[1][2] - plain[0][2]) < 0.03 * abs(plain[0][2]) < abs(tet[2] - hexa[2]) / 2
+
+
+def test_end_face_load_moves_the_whole_end_face_and_balances():
+    """--load-end prescribes every node of the upper beam's end face x = 2, z >= 0.6 (and none of
+    the lower beam's or the medium's): their displacement is the corner's, and the clamp holds the
+    face's reaction. Giving --load-patch as well is refused."""
+    args = cbox3d.common.parse_args(cbox3d.make_parser(), coarse() + ["--load-end"])
+    problem, _ = cbox3d.build(args)
+    problem.solve(control=cbox3d.common.load_stepping(args))
+    u = problem.displacement()
+    x = u.function_space.tabulate_dof_coordinates()
+    on_end = np.isclose(x[:, 0], 2.0) & (x[:, 2] >= 0.6 - 1e-10)
+    below = np.isclose(x[:, 0], 2.0) & (x[:, 2] < 0.6 - 1e-10)
+    values = u.x.array.reshape(-1, 3)[: len(x)]
+    assert on_end.sum() > 4 and np.allclose(values[on_end, 1:], [0.05 * 0.25, -0.05 * 1.0])
+    assert not np.allclose(values[below, 2], -0.05)
+    r = problem.reactions()
+    assert np.allclose(np.add(r["load"], r["clamp"]), 0.0, atol=1e-6 * np.linalg.norm(r["load"]))
+    with pytest.raises(ValueError, match="not both"):
+        cbox3d.build(cbox3d.common.parse_args(cbox3d.make_parser(), coarse() + ["--load-end", "--load-patch", "0.2"]))
