@@ -141,7 +141,7 @@ def comparison_rows(records: typing.Sequence[dict]) -> list[str]:
 def markdown(records: typing.Sequence[dict], machine: str) -> str:
     """The comparison table, then every case's gaps over its load path."""
     lines = ["# 3D C-box: SFVEM and Q2 FEM on the same hexahedral grids (bench/cbox3d_vem_fem.py)", "",
-             "Point contact, the corner (or a patch at it: 'moved') displaced by (0, 0.25, -1) x scale, Hu-Hu "
+             "Point contact, the corner (or a patch at it, or the upper beam's end face: 'moved') displaced by (0, 0.25, -1) x scale, Hu-Hu "
              f"regularization of weight alpha_r (0: none), gamma 1e-5; {machine}. R: the internal force at the moved nodes at the last converged step; "
              "difference: |R_vem - R_fem| / |R_fem| (both at the same load), R_z: the same of R_z alone; gap: the "
              "smallest over the converged steps; closure: the relative difference of the gap's closure "
