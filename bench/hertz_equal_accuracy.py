@@ -41,7 +41,7 @@ sys.path.insert(0, str(HERE))
 from case_store import CaseStore, machine  # noqa: E402
 
 #: the demo's options shared by every case
-COMMON = ("--gamma", "1e-5", "--indent", "0.04", "--steps", "20", "--quiet")
+COMMON = ("--gamma", "1e-5", "--indent", "0.04", "--steps", "20")
 #: name -> the demo's mesh and method options
 CASES = {
     "octree-0.2-0.1": ("--method", "vem", "--block", "octree", "--h", "0.2", "--h-core", "0.1"),
