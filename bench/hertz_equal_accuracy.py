@@ -67,6 +67,8 @@ def run_case(name: str, work: pathlib.Path) -> dict:
     steps = summary.get("steps", [])
     record["newton"] = sum(s["newton_iterations"] for s in steps if s.get("converged", True))
     record["newton_failed"] = sum(s["newton_iterations"] for s in steps if not s.get("converged", True))
+    record["min_gap"] = min((s["gap"]["value"] for s in steps if s.get("converged", True) and s.get("gap")),
+                            default=None)
     if (out / "hertz3d.json").exists():
         result = json.loads((out / "hertz3d.json").read_text())
         if result["rows"]:
@@ -86,19 +88,21 @@ def table(records: list[dict]) -> str:
              "about 0.217 at the full load), 20 load steps. Errors at the last converged state against Hertz at "
              "its force: the nodal peak p_max / p0, the radius from the pressure's second moment within 2 a (a_m; "
              "'on nodes': what Hertz's own profile gives on the same nodes), Hertz's ellipse fitted to the "
-             "nodes above 30 % of the peak (p0_fit, a_fit), the zone's a_zone for reference.", "",
+             "nodes above 30 % of the peak (p0_fit, a_fit), the zone's a_zone for reference. Gaps: the block's "
+             "smallest gap at the last state, and the smallest gap between any two bodies over the converged "
+             "steps (negative: a node within the overlap tolerance inside the other body).", "",
              "| case | unknowns | load | Newton (failed) | wall | peak memory | p_max/p0 | a_m/a_H (on nodes) "
-             "| p0_fit/p0 | a_fit/a_H | a_zone/a_H | smallest gap |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| p0_fit/p0 | a_fit/a_H | a_zone/a_H | block's gap | smallest gap |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in records:
         if "p_ratio" not in r:
             lines.append(f"| {r['case']} | {r['dofs']} | no contact | {r['newton']} ({r['newton_failed']}) "
-                         f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | | | | | | {r['message']} |")
+                         f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | | | | | | | {r['message']} |")
             continue
         lines.append(f"| {r['case']} | {r['dofs']:,} | {r['load']:.3g} | {r['newton']} ({r['newton_failed']}) "
                      f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | {r['p_ratio']:.3f} "
                      f"| {r['a_m_ratio']:.3f} ({r['a_m_H_ratio']:.3f}) | {r['p0_fit_ratio']:.3f} | {r['a_fit_ratio']:.3f} "
-                     f"| {r['a_zone_ratio']:.3f} | {r['gap']:.2e} |")
+                     f"| {r['a_zone_ratio']:.3f} | {r['gap']:.2e} | {r['min_gap']:.2e} |")
     return "\n".join(lines) + "\n"
 
 

@@ -15,8 +15,9 @@ def test_record_and_row_from_the_demo_outputs(tmp_path, monkeypatch):
     def fake_demo(command, **_):
         out = tmp_path / "octree-0.2-0.1"
         out.mkdir()
-        steps = [{"newton_iterations": 3, "converged": True}, {"newton_iterations": 60, "converged": False},
-                 {"newton_iterations": 12, "converged": True}]
+        steps = [{"newton_iterations": 3, "converged": True, "gap": {"value": 0.05}},
+                 {"newton_iterations": 60, "converged": False, "gap": {"value": -0.1}},
+                 {"newton_iterations": 12, "converged": True, "gap": {"value": -1e-4}}]
         (out / "summary.json").write_text(json.dumps({"dofs": 38463, "message": "", "converged": True,
                                                        "steps": steps}))
         row = {"load": 1.0, "F": 0.015, "p_max": 0.2, "p0_H": 0.16, "a_H": 0.2, "a_zone": 0.22, "gap": 9e-5}
@@ -32,4 +33,4 @@ def test_record_and_row_from_the_demo_outputs(tmp_path, monkeypatch):
     row = bench.table([record]).splitlines()[-1]
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[:4] == ["octree-0.2-0.1", "38,463", "1", "15 (60)"]
-    assert cells[6:11] == ["1.250", "1.005 (1.001)", "1.025", "0.950", "1.100"]
+    assert cells[6:13] == ["1.250", "1.005 (1.001)", "1.025", "0.950", "1.100", "9.00e-05", "-1.00e-04"]
