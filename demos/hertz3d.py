@@ -83,6 +83,11 @@ reads the early fall as a smaller radius, the moment weighs it against the tail.
 value), continued from 1e-5 (``--gamma-start 1e-5``, about 2e-6 at first contact) on the 0.03
 core: the first contact step (0.725) converged in 19 iterations with the medium at J ~ 1e-4, the
 next failed twice in 60 iterations each (J < 0 in the medium), stopped after 50 min.
+
+The SFVEM on the octree block (``--method vem --block octree --h 0.2 --h-core 0.1``: cubes of
+0.0625 under the sphere, 38,463 unknowns, 43 min): a_m / a_H = 1.004, a_fit / a_H = 1.012,
+p0_fit / p0 = 1.031, but a noisy nodal pressure (largest node 1.478 p0); against the P2 meshes
+in bench/hertz_equal_accuracy.md (docs/notes/2026-11-27-hertz-equal-accuracy.md).
 """
 from __future__ import annotations
 
