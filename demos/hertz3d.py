@@ -104,6 +104,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem import exact
 from dolfinx_sfvem.benchmarks3d import HERTZ3D_H, HERTZ3D_R, SPHERE
 from dolfinx_sfvem.figure_output import save_png
+from dolfinx_sfvem.quadrature import triangle_rule
 from dolfinx_sfvem.run_summary import RunSummary, read_summary
 
 import _common as common
@@ -241,11 +242,6 @@ def radial_profile(xy: np.ndarray, p: np.ndarray) -> np.ndarray:
     return rp[np.argsort(rp[:, 0])]
 
 
-#: degree-3 rule on the triangle: barycentric points and weights (summing to 1)
-_TRI3_POINTS = np.array([[1 / 3, 1 / 3, 1 / 3], [0.6, 0.2, 0.2], [0.2, 0.6, 0.2], [0.2, 0.2, 0.6]])
-_TRI3_WEIGHTS = np.array([-27 / 48, 25 / 48, 25 / 48, 25 / 48])
-
-
 def moment_radius(xy: np.ndarray, p: np.ndarray, within: float = math.inf) -> float:
     """Contact radius from the pressure's second moment, a_m = sqrt(5/2 int p r^2 dA / int p dA),
     over the nodes within radius ``within`` of the axis.
@@ -265,11 +261,13 @@ def moment_radius(xy: np.ndarray, p: np.ndarray, within: float = math.inf) -> fl
     triangles = Delaunay(xy).simplices                                     # (m, 3)
     corners = xy[triangles]                                                # (m, 3, 2)
     e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    points = np.einsum("qk,mkd->mqd", _TRI3_POINTS, corners)               # (m, q, 2)
-    pq = _TRI3_POINTS @ p[triangles].T                                     # (q, m)
-    force = np.sum(area * (_TRI3_WEIGHTS @ pq))
-    second = np.sum(area * np.einsum("q,qm,mq->m", _TRI3_WEIGHTS, pq, np.sum(points ** 2, axis=2)))
+    jacobian = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])          # (m,): twice the area
+    reference, weights = triangle_rule(3)                                  # p linear times r^2: degree 3
+    barycentric = np.column_stack([1.0 - reference.sum(axis=1), reference])  # (q, 3)
+    points = np.einsum("qk,mkd->mqd", barycentric, corners)                # (m, q, 2)
+    pq = barycentric @ p[triangles].T                                      # (q, m)
+    force = np.sum(jacobian * (weights @ pq))
+    second = np.sum(jacobian * np.einsum("q,qm,mq->m", weights, pq, np.sum(points ** 2, axis=2)))
     return math.sqrt(2.5 * second / force) if force > 0.0 else math.nan
 
 
