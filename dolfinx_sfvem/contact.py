@@ -482,14 +482,15 @@ def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_norma
 def solid_boundary(mesh, solid_tags: typing.Collection[int],
                    midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
                    tolerance: float = OVERLAP_TOLERANCE,
-                   face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None):
+                   face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                   pressure_keys: np.ndarray | None = None):
     """The contact geometry of ``mesh``: :class:`SolidBoundary` for a :class:`PolygonMesh`,
     :class:`~dolfinx_sfvem.solid_surface.SolidSurface` for a 3D ``CellMesh`` (the same interface;
-    ``face_centre_keys`` only for hexahedra)."""
+    ``face_centre_keys`` only for hexahedra, ``pressure_keys`` only in 3D)."""
     if isinstance(mesh, PolygonMesh):
         return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
     if np.shape(mesh.points)[1] != 3:
         raise TypeError(f"contact checks need a PolygonMesh (2D) or a 3D mesh, not a {mesh.cell_type} mesh "
                         f"with {np.shape(mesh.points)[1]} coordinates")
     from .solid_surface import SolidSurface       # libigl is needed in 3D only
-    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys)
+    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys, pressure_keys)

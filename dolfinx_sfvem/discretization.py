@@ -373,6 +373,12 @@ class Discretization(abc.ABC):
         for the contact pressure's recovery; the forces themselves where those nodes are the unknowns."""
         return self.get_state(f)
 
+    @property
+    def pressure_keys(self) -> np.ndarray | None:
+        """Keys of the :meth:`output_state` nodes at which the contact pressure is recovered from
+        the forces on their faces, the others interpolated (None: every node; docs/contact.md)."""
+        return None
+
     @abc.abstractmethod
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys of the midpoints of the edges between the :attr:`output_mesh` points a and b (n,)."""

@@ -252,7 +252,8 @@ class ContactProblem:
         self.boundary = solid_boundary(self.disc.output_mesh,
                                        [tag for tag, energy in self.materials.items() if not energy.is_medium],
                                        self.disc.midpoint_keys, self._options["overlap_tolerance"],
-                                       face_centre_keys=getattr(self.disc, "face_centre_keys", None))
+                                       face_centre_keys=getattr(self.disc, "face_centre_keys", None),
+                                       pressure_keys=self.disc.pressure_keys)
         self.x = self.disc.create_vector()
         self.x.set(0.0)
         self._bound: list[tuple[Load, BoundLoad]] = []     # the loads bound to this discretization

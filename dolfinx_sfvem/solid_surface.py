@@ -42,6 +42,7 @@ import igl
 import igl.predicates
 import numba
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
@@ -165,7 +166,8 @@ class SolidSurface:
     def __init__(self, mesh, solid_tags: typing.Collection[int],
                  midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
                  tolerance: float = OVERLAP_TOLERANCE,
-                 face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None):
+                 face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                 pressure_keys: npt.ArrayLike | None = None):
         if not (np.isfinite(tolerance) and tolerance > 0.0):
             raise ValueError(f"overlap tolerance must be a positive fraction of the mesh size, not {tolerance!r}")
         self.tolerance = float(tolerance)
@@ -191,6 +193,8 @@ class SolidSurface:
         self.face_nodes = face_nodes.reshape(face_keys.shape).astype(np.int64)
         self.X = np.concatenate(positions, axis=1).reshape(-1, 3)[first]
         self.face_faces_medium = sf.neighbour >= 0
+        self.recovered = (np.ones(self.node_keys.size, dtype=bool) if pressure_keys is None
+                          else np.isin(self.node_keys, np.asarray(pressure_keys, dtype=np.int64)))
         face_body, face_tag = sf.body[sf.cell], np.asarray(mesh.tags, dtype=np.int64)[sf.cell]
         # sub-triangles, grouped by body
         local = SUB_TRIANGLES[k]
@@ -415,7 +419,8 @@ class SolidSurface:
         medium-facing faces in proportion to their deformed areas (exact for a uniform traction on
         P2 triangles and Q2 quadrilaterals of any sizes), over the face's deformed area, along its
         outward mean normal; at a node the area-weighted mean of its faces'. A pair's force sums the
-        whole medium force ``f``; its ``zone_length`` is the deformed area of its contact zone."""
+        whole medium force ``f``; its ``zone_length`` is the deformed area of its contact zone. At the
+        nodes outside ``pressure_keys`` the mean of the corners (:meth:`_interpolated`)."""
         facing = self.face_faces_medium
         vector = np.zeros((self.face_nodes.shape[0], 3))
         np.add.at(vector, self.triangle_face, 0.5 * self._area_vectors(x))
@@ -429,7 +434,39 @@ class SolidSurface:
         p_face = np.divide(np.einsum("ij,ij->i", resultant, vector), area ** 2, out=np.zeros_like(area), where=area > 0.0)
         p = np.divide(np.bincount(nodes, face_area * np.repeat(p_face, self.face_nodes.shape[1]), self.n_nodes), area_at,
                       out=np.zeros(self.n_nodes), where=area_at > 0.0)
+        p = self._interpolated(p, facing)
         return contact_pressure(self, x, g, partner, p, f, 0.5 * np.linalg.norm(self._area_vectors(x), axis=1))
+
+    def _interpolated(self, p: np.ndarray, facing: np.ndarray) -> np.ndarray:
+        """``p`` (n_nodes,) kept at the :attr:`recovered` nodes and replaced at the others, on the
+        faces facing the medium (``facing`` (n_faces,) bool): at a face corner by the mean of the
+        recovered corners of the facing faces around it, then at an edge midpoint by the mean of
+        its edge's two ends and at a quadrilateral's centre by the mean of its four corners."""
+        if self.recovered.all():
+            return p
+        faces = self.face_nodes[facing]
+        k = 4 if faces.shape[1] == 9 else 3
+        corners = faces[:, :k]
+        out = p.copy()
+        kept = self.recovered[corners]
+        total = np.zeros(self.n_nodes)
+        count = np.zeros(self.n_nodes)
+        value, weight = np.where(kept, p[corners], 0.0).sum(axis=1), kept.sum(axis=1)
+        for j in range(k):                              # every recovered corner of a face to its other corners
+            np.add.at(total, corners[:, j], value)
+            np.add.at(count, corners[:, j], weight)
+        at = ~self.recovered[corners] & (count[corners] > 0)
+        out[corners[at]] = total[corners[at]] / count[corners[at]]
+        ends = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2)      # (faces, k, 2): edge i from i to i + 1
+        for j in range(k):
+            mid = faces[:, k + j]
+            free = ~self.recovered[mid]
+            out[mid[free]] = 0.5 * out[ends[free, j]].sum(axis=1)
+        if k == 4:
+            centre = faces[:, 8]
+            free = ~self.recovered[centre]
+            out[centre[free]] = out[corners[free]].mean(axis=1)
+        return out
 
 
 #: the directions the clusters of the facing search are sorted by: towards the faces, edges and corners of a cube

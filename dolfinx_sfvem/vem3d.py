@@ -359,6 +359,13 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         space = self.space
         return CellOutlines(space.polyhedron_mesh.edges(), space.fan.tetrahedron_cell)
 
+    @property
+    def pressure_keys(self) -> np.ndarray:
+        """The polyhedra's vertices (the fan mesh's first points): a face's force, mostly on its mean
+        DOF, follows a smooth traction poorly face by face, its sum over a vertex's faces well
+        (docs/contact.md)."""
+        return np.arange(self.space.polyhedron_mesh.points.shape[0], dtype=np.int64)
+
     def output_point_displacements(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
         """(fan points (k,), host displacements (k, 3)) of the owned host nodes at fan points."""
         keys, values = self.output_state(x)

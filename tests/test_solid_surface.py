@@ -130,29 +130,66 @@ def test_ridges_crossing_between_nodes(box_grid):
     assert apart.value > d and apart.overlap == 0.0
 
 
-def test_pressure_uniform_compression(box_grid):
+def uniform_traction_forces(s: SolidSurface, p: float) -> np.ndarray:
+    """Consistent P2/Q2 nodal forces (n_nodes, 3) of the traction p e_x on the left cube's face x = 1."""
+    f = np.zeros_like(s.X)
+    for face, nodes in enumerate(s.face_nodes):
+        if not s.face_faces_medium[face] or abs(s.X[nodes[0], 0] - 1.0) > 1e-12:
+            continue
+        k = 3 if nodes.size == 6 else 4
+        area = 0.25 if k == 4 else 0.125
+        weights = [0.0] * 3 + [1 / 3] * 3 if k == 3 else [1 / 36] * 4 + [1 / 9] * 4 + [4 / 9]
+        f[nodes, 0] += p * area * np.array(weights)
+    return f
+
+
+@pytest.mark.parametrize("vertices_only", [False, True])
+def test_pressure_uniform_compression(box_grid, vertices_only):
     """Nodal forces of a uniform traction p n on the solid-medium interface (the consistent P2/Q2 loads)
-    give back the pressure p at every node of that face, and the pair's force p x area."""
+    give back the pressure p at every node of that face, and the pair's force p x area; also when
+    the pressure is recovered at the vertices alone and interpolated at the other nodes."""
     for cell in CELLS:
         mesh = two_cubes(box_grid, cell)
-        s = surface(mesh)
+        s = surface(mesh, pressure_keys=np.arange(mesh.points.shape[0]) if vertices_only else None)
         u = np.zeros_like(s.X)
-        f = np.zeros_like(s.X)
         p = 2.5
-        # consistent nodal forces of the traction on the face x = 1 (outward normal +x) of the left cube
-        for face, nodes in enumerate(s.face_nodes):
-            if not s.face_faces_medium[face] or abs(s.X[nodes[0], 0] - 1.0) > 1e-12:
-                continue
-            k = 3 if nodes.size == 6 else 4
-            area = 0.25 if k == 4 else 0.125
-            weights = [0.0] * 3 + [1 / 3] * 3 if k == 3 else [1 / 36] * 4 + [1 / 9] * 4 + [4 / 9]
-            f[nodes, 0] += p * area * np.array(weights)
+        f = uniform_traction_forces(s, p)
         gap, pressure = s.gap_and_pressure(u, f, f)
         on = np.abs(s.X[:, 0] - 1.0) < 1e-12
         np.testing.assert_allclose(pressure.pressure[on], p, rtol=1e-12)
         assert np.all(pressure.pressure[~on] == 0.0)
         pair = next(q for q in pressure.pairs if q.body == pressure.body[np.argmax(on)])
         assert pair.force[0] == pytest.approx(-p, rel=1e-12) and pair.zone_length == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("cell", CELLS)
+def test_pressure_interpolated_off_the_recovered_nodes(box_grid, cell):
+    """With ``pressure_keys`` the vertices but the centre (1, 0.5, 0.5) of the contact face, under
+    uneven forces: the recovered vertices keep the pressure recovered at every node, the centre takes
+    the mean of the recovered corners of its faces, every edge midpoint the mean of its ends and a
+    quadrilateral's centre that of its corners."""
+    mesh = two_cubes(box_grid, cell)
+    centre = int(np.flatnonzero(np.all(np.isclose(mesh.points, [1.0, 0.5, 0.5]), axis=1))[0])
+    keys = np.delete(np.arange(mesh.points.shape[0]), centre)
+    everywhere, interpolated = surface(mesh), surface(mesh, pressure_keys=keys)
+    rng = np.random.default_rng(7)
+    f = uniform_traction_forces(everywhere, 1.0) * rng.uniform(0.5, 1.5, (everywhere.n_nodes, 1))
+    u = np.zeros_like(everywhere.X)
+    p0 = everywhere.gap_and_pressure(u, f, f)[1].pressure
+    p1 = interpolated.gap_and_pressure(u, f, f)[1].pressure
+    assert np.ptp(p0[np.isclose(everywhere.X[:, 0], 1.0)]) > 0.1          # uneven
+    k = 4 if cell == "hexahedron" else 3
+    on = everywhere.face_nodes[everywhere.face_faces_medium & np.all(np.isclose(everywhere.X[everywhere.face_nodes[:, :k], 0], 1.0), axis=1)]
+    corners = on[:, :k]
+    c = int(np.flatnonzero(everywhere.node_keys == centre)[0])
+    vertex = np.unique(corners[corners != c])
+    np.testing.assert_allclose(p1[vertex], p0[vertex], rtol=1e-14)
+    around = corners[(corners == c).any(axis=1)]
+    assert p1[c] == pytest.approx(p0[around[around != c]].mean(), rel=1e-14)
+    for j in range(k):
+        np.testing.assert_allclose(p1[on[:, k + j]], 0.5 * (p1[corners[:, j]] + p1[corners[:, (j + 1) % k]]), rtol=1e-14)
+    if k == 4:
+        np.testing.assert_allclose(p1[on[:, 8]], p1[corners].mean(axis=1), rtol=1e-14)
 
 
 def test_size_50k_nodes(box_grid):
