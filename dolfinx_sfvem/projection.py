@@ -424,14 +424,6 @@ def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
         D(D+1)/2 (the rigid motions: 3 in 2D, 6 in 3D) is right. These are the zero eigenvalues
         of the linear-elastic element stiffness (docs/method.md §3 table, §8).
     """
-    gradient, A = _gradient_and_strain_matrices(Q)
-    return count_zero_eigenvalues(gradient, tol ** 2), count_zero_eigenvalues(A, tol ** 2)
-
-
-@numba.njit(cache=True)
-def _gradient_and_strain_matrices(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The matrices (nd, nd) of int_E |Pi grad v|^2 and (D nd, D nd) A of int_E |sym Pi grad u|^2
-    (:func:`null_space_dimensions`)."""
     D = Q.shape[0]
     nd = Q.shape[2]
     gradient = np.zeros((nd, nd))
@@ -443,41 +435,7 @@ def _gradient_and_strain_matrices(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray
         for d in range(D):
             if d != c:
                 A[c * nd:(c + 1) * nd, d * nd:(d + 1) * nd] = 0.5 * (Q[d].T @ Q[c])
-    return gradient, A
-
-
-@numba.njit(cache=True)
-def _eigenvalue(d: np.ndarray, e: np.ndarray, k: int, upper: float) -> float:
-    """The k-th smallest eigenvalue (from 0) of the symmetric tridiagonal (d, e) with all of its
-    eigenvalues in [0, ``upper``], by bisection to 1e-6 of itself (or of ``upper`` near 0)."""
-    lower = 0.0
-    while upper - lower > 1e-6 * upper and upper > 1e-15 * (lower + upper + 1e-300):
-        middle = 0.5 * (lower + upper)
-        if _eigenvalues_below(d, e, middle) > k:
-            upper = middle
-        else:
-            lower = middle
-    return 0.5 * (lower + upper)
-
-
-@numba.njit(cache=True)
-def softest_mode_ratio(Q: np.ndarray) -> float:
-    """The softest non-rigid strain mode against the typical one: lambda_r / median(lambda_r, ...)
-    of the eigenvalues of A (:func:`null_space_dimensions`, the linear-elastic stiffness for
-    mu = 1/2, lambda = 0) beyond its r = D(D+1)/2 rigid motions. Small when a deformation of the
-    element costs almost no energy without being a null-space mode (docs/method.md §8)."""
-    D = Q.shape[0]
-    _, A = _gradient_and_strain_matrices(Q)
-    d, e = _tridiagonal_form(A)
-    n = d.size
-    upper = 0.0  # Gershgorin bound
-    for i in range(n):
-        upper = max(upper, d[i] + (abs(e[i - 1]) if i > 0 else 0.0) + (abs(e[i]) if i < n - 1 else 0.0))
-    r = D * (D + 1) // 2
-    if n <= r:
-        return 1.0
-    median = _eigenvalue(d, e, r + (n - r) // 2, upper)
-    return _eigenvalue(d, e, r, upper) / median if median > 0.0 else 0.0
+    return count_zero_eigenvalues(gradient, tol ** 2), count_zero_eigenvalues(A, tol ** 2)
 
 
 @numba.njit(cache=True)

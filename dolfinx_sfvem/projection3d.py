@@ -49,8 +49,7 @@ from .polyhedron import (_edges, _geometry, face_frame, face_quadrature, face_tr
                          map_triangle_rule, monomial_integrals_from_faces, plane_coordinates, polyhedron_quadrature,
                          validate_polyhedron)
 from .projection import (RANK_TOL, ProjectionBlocks, cholesky, count_zero_eigenvalues, gradient_projection,
-                         orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system, rank_of_projection,
-                         softest_mode_ratio)
+                         orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system, rank_of_projection)
 from .quadrature import triangle_rule
 
 #: smallest and largest l tried by the automatic choice (docs/method.md §8; l_min = 3 as in 2D)
@@ -58,10 +57,6 @@ L_MIN, L_MAX = 3, 10
 
 #: largest degree of a face projection Pi^nabla_{k_f,f} (docs/method.md §8)
 K_FACE_MAX = 8
-
-#: a sufficient l whose softest non-rigid strain mode (:func:`~dolfinx_sfvem.projection.softest_mode_ratio`)
-#: is below this fraction of the median mode gets one degree more (docs/method.md §8)
-SOFT_MODE_RATIO = 5e-4
 
 
 # --------------------------------------------------------------------------- face spaces
@@ -343,9 +338,7 @@ def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, fac
     has exactly the 6 rigid motions in its null space and the projected gradient v~ -> Pi^0_l grad v
     only the constants, counted in the L^2(E)-orthonormal basis with the relative singular-value
     tolerance ``tol`` (:func:`dolfinx_sfvem.projection.null_space_dimensions`). An l with
-    6 n_l < 3 n_d - 6 cannot be sufficient and is skipped, unless it is l_to. A sufficient l whose
-    softest non-rigid mode is below :data:`SOFT_MODE_RATIO` of the median is replaced by l + 1 if
-    that one is sufficient too (once).
+    6 n_l < 3 n_d - 6 cannot be sufficient and is skipped, unless it is l_to.
 
     Returns
     -------
@@ -357,7 +350,6 @@ def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, fac
         Orthonormal moments (:func:`dolfinx_sfvem.projection.orthonormal_moments`).
     """
     l = l_from
-    raised, L_soft, Q_soft = False, np.empty((0, 0)), np.empty((3, 0, 0))
     while True:
         if 6 * n_monomials3(l) < 3 * n_d - 6 and l < l_to:
             l += 1
@@ -367,14 +359,7 @@ def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, fac
         M, R = projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla,
                                     l)
         L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
-        sufficient = gradient_nullity == 1 and strain_nullity == 6
-        if raised:
-            if sufficient:
-                return l, gradient_nullity, strain_nullity, L, Q
-            return l - 1, 1, 6, L_soft, Q_soft
-        if sufficient and l < l_to and softest_mode_ratio(Q) < SOFT_MODE_RATIO:
-            raised, L_soft, Q_soft = True, L, Q
-        elif gradient_nullity == -1 or sufficient or l == l_to:
+        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 6) or l == l_to:
             return l, gradient_nullity, strain_nullity, L, Q
         l += 1
 
