@@ -85,9 +85,12 @@ core: the first contact step (0.725) converged in 19 iterations with the medium 
 next failed twice in 60 iterations each (J < 0 in the medium), stopped after 50 min.
 
 The SFVEM on the octree block (``--method vem --block octree --h 0.2 --h-core 0.1``: cubes of
-0.0625 under the sphere, 38,463 unknowns, 43 min): a_m / a_H = 1.004, a_fit / a_H = 1.012,
-p0_fit / p0 = 1.031, but a noisy nodal pressure (largest node 1.478 p0); against the P2 meshes
-in bench/hertz_equal_accuracy.md (docs/notes/2026-11-27-hertz-equal-accuracy.md).
+0.0625 under the sphere, 38,463 unknowns, 43 min): p0_fit / p0 = 0.988, p_max / p0 = 1.122 (the
+vertex on the axis), a_fit / a_H = 0.958, a_m / a_H = 1.037. Its pressure is recovered over the
+polyhedra's vertex patches, because the force on a single face scatters by ±28 % about Hertz's
+(docs/notes/2026-11-27-sfvem-3d-pressure.md); the patches smooth the zone's edge over about one
+face, which moves the radii. Against the P2 meshes in bench/hertz_equal_accuracy.md
+(docs/notes/2026-11-27-hertz-equal-accuracy.md).
 """
 from __future__ import annotations
 
