@@ -80,11 +80,12 @@ def test_iterative_solver_same_reactions():
 @pytest.mark.mpi
 @pytest.mark.parametrize("method", ["fem", "vem"])
 def test_same_reactions_on_one_and_two_ranks(method):
-    """The coarse run on all ranks and on each rank alone: the reactions agree to 1e-9."""
+    """The coarse run on all ranks and on each rank alone: the reactions agree to 1e-9 of their size
+    (a component that is zero by symmetry carries round-off of about 1e-12 of it)."""
     world = reactions(MPI.COMM_WORLD, method)
     alone = reactions(MPI.COMM_SELF, method)
     for name in alone:
-        assert np.allclose(world[name], alone[name], rtol=1e-9, atol=1e-12 * np.abs(alone[name]).max())
+        assert np.allclose(world[name], alone[name], rtol=0.0, atol=1e-9 * np.abs(alone[name]).max())
 
 
 def test_tetrahedra_and_hexahedra_agree_under_a_patch_load():
