@@ -161,6 +161,8 @@ class SolidSurface:
     n_bodies : int
     triangles : (n_tri, 3) int64
         Sub-triangles (indices into :attr:`X`), outward, grouped by body (:attr:`body_offsets`).
+    recovered : (n_nodes,) bool
+        The nodes of ``pressure_keys``, at which the pressure is recovered from their faces.
     """
 
     def __init__(self, mesh, solid_tags: typing.Collection[int],
@@ -446,22 +448,18 @@ class SolidSurface:
             return p
         faces = self.face_nodes[facing]
         k = 4 if faces.shape[1] == 9 else 3
-        corners = faces[:, :k]
-        out = p.copy()
+        corners, following = faces[:, :k], np.roll(faces[:, :k], -1, axis=1)     # edge j from corner j to j + 1
         kept = self.recovered[corners]
-        total = np.zeros(self.n_nodes)
-        count = np.zeros(self.n_nodes)
-        value, weight = np.where(kept, p[corners], 0.0).sum(axis=1), kept.sum(axis=1)
-        for j in range(k):                              # every recovered corner of a face to its other corners
-            np.add.at(total, corners[:, j], value)
-            np.add.at(count, corners[:, j], weight)
+        # every face's recovered corners, summed and counted, to each of its corners
+        total = np.bincount(corners.ravel(), np.repeat(np.where(kept, p[corners], 0.0).sum(axis=1), k), self.n_nodes)
+        count = np.bincount(corners.ravel(), np.repeat(kept.sum(axis=1), k), self.n_nodes)
+        out = p.copy()
         at = ~self.recovered[corners] & (count[corners] > 0)
         out[corners[at]] = total[corners[at]] / count[corners[at]]
-        ends = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2)      # (faces, k, 2): edge i from i to i + 1
         for j in range(k):
             mid = faces[:, k + j]
             free = ~self.recovered[mid]
-            out[mid[free]] = 0.5 * out[ends[free, j]].sum(axis=1)
+            out[mid[free]] = 0.5 * (out[corners[free, j]] + out[following[free, j]])
         if k == 4:
             centre = faces[:, 8]
             free = ~self.recovered[centre]
