@@ -101,6 +101,7 @@ def test_uniaxial_strain_pressure_is_exact(box_grid, cell, tmp_path):
     on = contact_faces(pressure)
     assert on.sum() == 2 * 9                     # the Q2 (P2, two triangles) nodes of two unit squares
     np.testing.assert_allclose(pressure.pressure[on], -P, rtol=1e-8)
+    assert problem.boundary.recovered.all()      # the FEM recovers at every node
     assert np.all(pressure.pressure[~on] == 0.0)
     for pair in pressure.pairs:
         assert pair.force[2] == pytest.approx(P if pair.region == 1 else -P, rel=1e-8)   # down on the lower block
@@ -130,6 +131,10 @@ def test_sfvem_uniaxial_strain_pressure_is_exact(box_grid):
     on = contact_faces(pressure)
     assert on.sum() == 2 * 13        # per face: 4 vertices, 4 edge midpoints, the centre, 4 spoke midpoints
     np.testing.assert_allclose(pressure.pressure[on], -P, rtol=1e-8)
+    # recovered at the polyhedra's vertices (the fan mesh's first points), interpolated elsewhere
+    n_vertices = problem.disc.space.polyhedron_mesh.points.shape[0]
+    np.testing.assert_array_equal(problem.boundary.recovered, problem.boundary.node_keys < n_vertices)
+    assert problem.boundary.recovered[on].sum() == 2 * 4
     for pair in pressure.pairs:
         assert pair.force[2] == pytest.approx(P if pair.region == 1 else -P, rel=1e-8)
         assert pair.zone_length == pytest.approx(1.0, rel=1e-12)
