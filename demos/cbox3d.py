@@ -99,8 +99,9 @@ step (Q2: 0.027 at the end, 57 s; SFVEM: 0.022, 6 min)::
     python3 demos/cbox3d.py --contact line --alpha-r 100 --n 20 2 7 --out out/cbox3d-line
     python3 demos/cbox3d.py --contact line --alpha-r 100 --n 20 2 7 --method vem --out out/cbox3d-line-vem
 
-Finer grids stop short of it: (40, 2, 14) at 0.981 (Newton's steps fail by line search from 0.979),
-(20, 4, 7) at 0.989 (above); P2 tetrahedra on (20, 2, 7) stall at 0.30.
+Finer grids stop short of it for the same reason as above, the cell at the moved corner turning over
+at its vertex next to the corner: (40, 2, 14) at 0.981, (20, 4, 7) at 0.989; P2 tetrahedra on
+(20, 2, 7) stall at 0.30.
 
 The SFVEM (``--method vem``) on the same hexahedra read as polyhedra, which then has exactly Q2's
 unknowns: a quarter of the point-contact load in 2 steps, Hu-Hu regularization, gamma = 1e-5,

@@ -462,8 +462,7 @@ class LagrangeDiscretization(Discretization):
         their boundary loops in 2D; in 3D none (the guard there is J > 0 at the quadrature points
         and at the nodes of the solids' cells, :meth:`residual`)."""
         if self.element_loops is None:
-            none = np.zeros(self._owned_cells.size, dtype=bool)
-            return none, none
+            return np.zeros((2, self._owned_cells.size), dtype=bool)
         with x.localForm() as xl:
             return folded_elements(self._loop_offsets, self._loop, self.x_nodes, xl.array_r.reshape(-1, 2),
                                    self._owned_cells.astype(np.int64), self._solid)

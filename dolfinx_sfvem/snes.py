@@ -210,10 +210,19 @@ def state_failure(info: AssemblyInfo) -> list[str]:
     if not (info.min_J > 0.0):
         why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
     if info.folded:
-        why.append(f"{info.folded} folded element(s), e.g. {info.folded_polygon}")
+        why.append(f"{info.folded} folded element(s) (turned over at a vertex or edge midpoint), e.g. "
+                   f"{info.folded_polygon}")
     if not np.isfinite(info.energy):
         why.append("non-finite energy")
     return why
+
+
+def _worse(info: AssemblyInfo, than: AssemblyInfo) -> bool:
+    """Whether the trial state of ``info`` is worse than that of ``than``: inadmissible against
+    admissible, else a smaller J (a NaN J counts as worst)."""
+    if info.admissible != than.admissible:
+        return not info.admissible
+    return not (info.min_J >= than.min_J)
 
 
 def reason_name(reason: int, reasons: type = PETSc.SNES.ConvergedReason) -> str:
@@ -222,16 +231,22 @@ def reason_name(reason: int, reasons: type = PETSc.SNES.ConvergedReason) -> str:
     return next((k for k, v in vars(reasons).items() if v == reason and not k.startswith("_")), str(reason))
 
 
-def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
+def _failure(reason: int, info: AssemblyInfo, norms: typing.Sequence[float], atol: float, roundoff: float | None,
+             rejected: int = 0) -> str:
     """Why a solve that ended with SNES ``reason`` (residual norms ``norms``, final ``atol``) at a
-    state with diagnostics ``info`` is rejected."""
+    state with diagnostics ``info`` is rejected; ``rejected`` trial states of the solve were
+    outside the energy's domain (``info`` then describes one of them)."""
     why = []
     if reason <= 0:
         why.append(f"SNES reason {reason} ({reason_name(reason)})")
         stalled = reason in (PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
         if stalled and info.admissible and norms and atol > 0:
             why.append(_stall(norms, atol, roundoff))
-    return "; ".join(why + state_failure(info))
+    outside = state_failure(info)
+    if rejected and outside:
+        outside = [f"Newton's steps lead out of the admissible states ({rejected} trial state"
+                   f"{'' if rejected == 1 else 's'} rejected; the worst: {', '.join(outside)})"]
+    return "; ".join(why + outside)
 
 
 def negative_pivots(pc: PETSc.PC) -> int | None:
@@ -308,7 +323,8 @@ class SNESNewton:
         self._start_state = disc.create_vector()
         self._start_state_current = False     # A holds the tangent at _start_state, constraints not applied
         self.history: list[float] = []
-        self.worst_info = None      # smallest J met at any trial point of the current solve
+        self.worst_info = None      # the worst trial state of the current solve (:func:`_worse`)
+        self.rejected = 0           # trial states of the current solve outside the energy's domain
 
         self.snes = snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(prefix)
@@ -340,7 +356,8 @@ class SNESNewton:
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.equilibrium.residual(x, b)
-        if self.worst_info is None or not (info.min_J >= self.worst_info.min_J):
+        self.rejected += not info.admissible
+        if self.worst_info is None or _worse(info, self.worst_info):
             self.worst_info = info
         b.copy(self.force)
         x.copy(self._force_state)
@@ -524,6 +541,7 @@ class SNESNewton:
             self.forget_force()
         self.history = []
         self.worst_info = None
+        self.rejected = 0
         self._merit = self._merit_asked
         self._start(x)
         if not np.isfinite(self._stiffness):          # e.g. a predicted state with J <= 0: no Newton from there
@@ -539,7 +557,8 @@ class SNESNewton:
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
         atol = self.snes.getTolerances()[1]
-        failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None)
+        failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None,
+                                         self.rejected)
         return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
                             info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
                             self.negative_pivots())

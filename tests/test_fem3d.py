@@ -59,6 +59,31 @@ def test_nodes_keys_and_homogeneous_state(make, n_nodes, tiny3d):
         v.destroy()
 
 
+@pytest.mark.parametrize("d, folded", [(0.25, 0), (0.36, 1)])
+def test_solid_cell_turned_over_at_a_vertex_is_folded(d, folded, tiny3d):
+    """A solid hexahedron whose corner is pushed in along its diagonal by d of its edges,
+    u = d (h_x, h_y, h_z) (1 - X/h_x)(1 - Y/h_y)(1 - Z/h_z) (trilinear, so exact in Q2), has
+    J = 1 - 3d at that corner and a positive J at every quadrature point: beyond d = 1/3 it is
+    folded (not admissible), and it is not counted as kinked."""
+    mesh = hex_mesh(tiny3d)
+    disc = LagrangeDiscretization.from_cell_mesh(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, MPI.COMM_WORLD,
+                                                 verbose=False)
+    h = np.array([1.0, 0.5, 0.5])                             # the cells of the 2 x 2 x 2 grid
+    bump = np.prod(np.clip(1.0 - disc.x_nodes / h, 0.0, None), axis=1)
+    x, b = disc.create_vector(), disc.create_vector()
+    with x.localForm() as xl:
+        xl.array[:] = (d * bump[:, None] * h).ravel()
+    info = disc.residual(x, b)
+    assert info.min_J > 0.0
+    assert info.folded == folded and info.kinked == 0
+    assert info.admissible == (folded == 0)
+    if folded:
+        corner_cell = np.flatnonzero(np.all(mesh.points[mesh.cells].min(axis=1) == 0.0, axis=1))
+        assert info.folded_polygon == corner_cell[0]
+    for v in (x, b):
+        v.destroy()
+
+
 def test_body_force_and_displacement_at(tiny3d):
     mesh = hex_mesh(tiny3d)
     disc = LagrangeDiscretization.from_cell_mesh(mesh, {1: sf.Hyperelastic(K=K, mu=MU)}, MPI.COMM_WORLD,

@@ -22,6 +22,7 @@ from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes, snes as solver
+from dolfinx_sfvem.discretization import AssemblyInfo
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -339,6 +340,25 @@ def test_empty_boundary_condition_is_named(add, block):
     add(problem)
     with pytest.raises(ValueError, match="'outside'"):
         problem.solve(1)
+
+
+def test_failure_names_the_trial_states_that_left_the_domain():
+    """A line search that failed because its trial states were rejected says so and names the
+    worst of them (a folded cell with J > 0 everywhere), not a residual stall; without
+    rejected trial states the stall is classified as before."""
+    folded = AssemblyInfo(1.0, 0.0095, 1103, 2, folded=1, folded_polygon=1105)
+    start = AssemblyInfo(1.0, 0.0094, 1103, 2)
+    assert solver._worse(folded, start) and not solver._worse(start, folded)
+    assert solver._worse(AssemblyInfo(1.0, 0.001, 7, 2), start)
+    assert solver._worse(AssemblyInfo(1.0, float("nan"), -1, -1), start)
+    reason = int(PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH)
+    norms, atol = [4.9e-3, 4.5e-3, 4.48e-3], 9e-10
+    text = solver._failure(reason, folded, norms, atol, 9e-14, rejected=612)
+    assert "DIVERGED_LINE_SEARCH" in text
+    assert "Newton's steps lead out of the admissible states (612 trial states rejected; the worst: " \
+           "1 folded element(s)" in text and "e.g. 1105" in text
+    assert "round-off" not in text
+    assert "not a round-off limit" in solver._failure(reason, start, norms, atol, 9e-14)
 
 
 @pytest.mark.parametrize("norms, atol, roundoff, kind", [
