@@ -335,11 +335,12 @@ def petsc_options(args: argparse.Namespace) -> dict[str, str]:
 
 
 def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:
-    """The rows of load_path.csv as floats (empty if the file is missing)."""
+    """The rows of load_path.csv as floats (empty if the file is missing); an empty field (a value
+    not recorded, e.g. the negative pivots of an iterative linear solver) is NaN."""
     if not path.exists():
         return []
     with open(path, newline="") as f:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+        return [{k: float(v) if v != "" else math.nan for k, v in row.items()} for row in csv.DictReader(f)]
 
 
 #: exit code of a run ended by an unexpected exception (module docstring)
