@@ -384,6 +384,7 @@ class _Bordered:
         self.constraints.lift(A, self.rhs_R)
         self.constraints.lift(A, self.rhs_f)
         self.constraints.eliminate(A)
+        self.newton.solve_linear_to_tolerance()
         ksp = self.newton.ksp
         ksp.setOperators(A)
         ksp.setUp()

@@ -9,7 +9,9 @@ tangent onto the degree-1 space on the same mesh (the discretization's
 :func:`configure_ksp`). Algebraic multigrid on the whole tangent (GAMG) stagnates with a third
 medium: its regularization, a function of the second gradient, vanishes on the fields that are
 linear per element, so these are near-null in the medium and must be on the coarse level
-(docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Which one to take at which
+(docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Within Newton's iterations
+GMRES stops at a relative tolerance of Eisenstat and Walker's choice (SNES's ``ksp_ew``: at most
+1e-2, tightened as Newton's residual falls), outside them (the arc-length's bordering) at 1e-10. Which one to take at which
 size: docs/guide/solving.md. The tangent carries the rigid-body near-nullspace
 (:func:`rigid_body_modes`, 3 in 2D, 6 in 3D) for a GAMG chosen by options.
 """
@@ -27,6 +29,9 @@ LINEAR_SOLVERS: dict[str, dict[str, str]] = {
         "ksp_type": "gmres",
         "ksp_gmres_restart": "100",
         "ksp_rtol": "1e-10",
+        "snes_ksp_ew": "true",
+        "snes_ksp_ew_rtol0": "0.01",
+        "snes_ksp_ew_rtolmax": "0.01",
         "ksp_max_it": "1000",
         "pc_type": "mg",
         "pc_mg_galerkin": "both",

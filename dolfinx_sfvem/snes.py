@@ -342,6 +342,8 @@ class SNESNewton:
             if PETSc.Options().getString(prefix + "pc_type", "") == PETSc.PC.Type.MG:
                 configure_ksp(self.ksp, disc.coarse_interpolation())
             snes.setFromOptions()
+            #: the KSP's relative tolerance of the options, for solves outside SNES (:meth:`solve_linear_to_tolerance`)
+            self.ksp_rtol = self.ksp.getTolerances()[0]
             #: the option names (without prefix) given on the command line or from Python
             self.given = frozenset(scoped.given)
             self.scaled_atol = "snes_atol" not in scoped.given
@@ -352,6 +354,14 @@ class SNESNewton:
     def ksp(self) -> PETSc.KSP:
         """The linear solver of the Newton steps (its factorization serves the arc-length's bordering too)."""
         return self.snes.getKSP()
+
+    def solve_linear_to_tolerance(self) -> None:
+        """Let :attr:`ksp`'s own solves (outside SNES: the arc-length's bordering) stop at the
+        options' relative tolerance: the Eisenstat-Walker tolerances (``snes_ksp_ew``, the
+        iterative preset's), which PETSc applies to every solve of SNES's KSP and leaves set after
+        a SNES solve, off until SNES reads its options again (collective)."""
+        self.snes.setUseEW(False)
+        self.ksp.setTolerances(rtol=self.ksp_rtol)
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
