@@ -11,9 +11,9 @@ medium: its regularization, a function of the second gradient, vanishes on the f
 linear per element, so these are near-null in the medium and must be on the coarse level
 (docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Within Newton's iterations
 GMRES stops at a relative tolerance of Eisenstat and Walker's choice (SNES's ``ksp_ew``: at most
-1e-2, tightened as Newton's residual falls), outside them (the arc-length's bordering) at 1e-10. Which one to take at which
-size: docs/guide/solving.md. The tangent carries the rigid-body near-nullspace
-(:func:`rigid_body_modes`, 3 in 2D, 6 in 3D) for a GAMG chosen by options.
+1e-2, tightened as Newton's residual falls), outside them (the arc-length's bordering) at 1e-10.
+Which one to take at which size: docs/guide/solving.md. The tangent carries the rigid-body
+near-nullspace (:func:`rigid_body_modes`, 3 in 2D, 6 in 3D) for a GAMG chosen by options.
 """
 from __future__ import annotations
 
