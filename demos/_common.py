@@ -27,7 +27,9 @@ directory); 2 invalid input (argparse errors, or a ``ValueError`` / ``SolveFaile
 the library), reported on stderr without a traceback; 3 any other exception, reported on stderr
 with its traceback and a last line naming it and where it was raised (in a parallel run by
 the ranks that raised it, and then every rank is ended: ``MPI_Abort``, as a rank that raised
-alone would leave the others waiting in a collective call forever).
+alone would leave the others waiting in a collective call forever); 130 a second Ctrl-C, which
+interrupts the step under way (the first stops the path after it): one line on stderr, the
+converged steps kept.
 """
 from __future__ import annotations
 
@@ -345,6 +347,8 @@ def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:
 
 #: exit code of a run ended by an unexpected exception (module docstring)
 CRASHED = 3
+#: exit code of a run interrupted at once by a second Ctrl-C (128 + SIGINT, as a shell reports it)
+INTERRUPTED = 130
 
 
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
@@ -352,9 +356,10 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
     """Run a demo's ``main(argv)`` with :mod:`~dolfinx_sfvem.last_word` armed (a library that ends
     the process with ``exit()`` still leaves a message); expected failures become a message on stderr and exit code 2,
     any other exception its traceback and :func:`crash_message` on stderr and exit code
-    :data:`CRASHED`. In parallel both end every rank through ``MPI_Abort`` (an error raised on
-    one rank alone would leave the others waiting in a collective), and each rank that raised
-    names itself."""
+    :data:`CRASHED`; a second Ctrl-C (the first stops the path after its step) a one-line message
+    and exit code :data:`INTERRUPTED` (the load path has already said what it kept). In parallel
+    all of them end every rank through ``MPI_Abort`` (an error raised on one rank alone would leave
+    the others waiting in a collective), and each rank that raised names itself."""
     comm = MPI.COMM_WORLD
     last_word.arm()
     try:
@@ -366,6 +371,13 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
             last_word.disarm()
             comm.Abort(2)
         return 2
+    except KeyboardInterrupt:
+        rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
+        print(f"{rank}interrupted", file=sys.stderr, flush=True)
+        if comm.size > 1:
+            last_word.disarm()
+            comm.Abort(INTERRUPTED)
+        return INTERRUPTED
     except Exception as err:
         traceback.print_exc()
         print(crash_message(err, MPI.COMM_WORLD), file=sys.stderr, flush=True)

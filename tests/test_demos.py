@@ -123,6 +123,18 @@ def test_expected_errors_become_exit_code_2(capsys, error):
     assert capsys.readouterr().err.strip() == "error: polygon 7: self-intersection"
 
 
+def test_a_second_ctrl_c_ends_with_one_line_and_exit_code_130(capsys):
+    """KeyboardInterrupt (the load path raises it on a second Ctrl-C, after saying what it kept):
+    no traceback, one line, the shell's exit code for SIGINT."""
+    common = load_common()
+
+    def main(argv):
+        raise KeyboardInterrupt
+
+    assert common.exit_code(main) == 130
+    assert capsys.readouterr().err.strip() == "interrupted"
+
+
 def test_an_unexpected_error_ends_with_what_and_where(capsys):
     """Any other exception: its traceback, then a last line naming it and the line that raised it,
     and exit code 3."""
