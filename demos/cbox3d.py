@@ -32,9 +32,9 @@ upper beam's whole end face x = 2: their reactions stay finite under refinement,
 corner's vanishes (for comparing discretizations).
 ``--method vem``: the SFVEM on the cells read as polyhedra. ``--linear-solver iterative``
 (GMRES + p-multigrid) for grids beyond about 5e4 unknowns (bench/cbox3d_sizes.md; on dolfiny's
-40 x 14 x 14 grid, 204 k unknowns, 2 ranks: 20 s per Newton iteration, the point contact to load
-0.87 in 32 min, where the medium under the corner inverts at alpha_r = 10;
-docs/notes/2026-11-26-bench-3d-sizes.md).
+40 x 14 x 14 grid, 204 k unknowns, 2 ranks: 20 s per Newton iteration; the point contact to load 1
+in 42 min with ``--alpha-r 30``, while at alpha_r = 10 the medium under the corner inverts at
+0.88; docs/notes/2026-11-26-bench-3d-sizes.md).
 
 What it prints and writes
 -------------------------
