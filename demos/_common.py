@@ -365,32 +365,28 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
-        rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
-        print(f"{rank}error: {err}", file=sys.stderr, flush=True)
-        if comm.size > 1:
-            last_word.disarm()
-            comm.Abort(2)
-        return 2
+        return _end(comm, f"error: {err}", 2)
     except KeyboardInterrupt:
-        rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
-        print(f"{rank}interrupted", file=sys.stderr, flush=True)
-        if comm.size > 1:
-            last_word.disarm()
-            comm.Abort(INTERRUPTED)
-        return INTERRUPTED
+        return _end(comm, "interrupted", INTERRUPTED)
     except Exception as err:
         traceback.print_exc()
-        print(crash_message(err, MPI.COMM_WORLD), file=sys.stderr, flush=True)
-        if MPI.COMM_WORLD.size > 1:
-            last_word.disarm()
-            MPI.COMM_WORLD.Abort(CRASHED)
-        return CRASHED
+        return _end(comm, crash_message(err), CRASHED)
 
 
-def crash_message(err: BaseException, comm: MPI.Comm) -> str:
+def _end(comm: MPI.Comm, text: str, code: int) -> int:
+    """``text`` on stderr, prefixed by the rank in a parallel run, where every rank is then ended
+    with ``code`` (``MPI_Abort``); ``code`` otherwise."""
+    rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
+    print(f"{rank}{text}", file=sys.stderr, flush=True)
+    if comm.size > 1:
+        last_word.disarm()
+        comm.Abort(code)
+    return code
+
+
+def crash_message(err: BaseException) -> str:
     """``error: <type> in <file>:<line> (<function>): <message>``, where ``err`` was raised (its
-    innermost frame), prefixed by the rank in a parallel run."""
+    innermost frame)."""
     frames = traceback.extract_tb(err.__traceback__)
     where = f" in {frames[-1].filename}:{frames[-1].lineno} ({frames[-1].name})" if frames else ""
-    rank = f"rank {comm.rank} of {comm.size}: " if comm.size > 1 else ""
-    return f"{rank}error: {type(err).__name__}{where}: {err}"
+    return f"error: {type(err).__name__}{where}: {err}"
