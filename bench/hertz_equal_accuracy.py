@@ -21,9 +21,10 @@ Writes ``DIR/hertz_equal_accuracy.json`` (every case, appended as it finishes; a
 cases already there) and ``DIR/hertz_equal_accuracy.md``: per case the unknowns, Newton iterations
 (converged steps, and of failed attempts), wall time, the child's peak memory (its maximum resident
 set, from ``wait4``), and the errors against Hertz at the full load: the peak pressure p_max / p0
-the radius from the pressure's second moment within 2 a, a_m / a_H, and Hertz's ellipse fitted to
-the block-top pressure, p0_fit / p0 and a_fit / a_H (with the zone's a_zone / a_H for reference). Timings are the machine's at the time, never
-asserted.
+the radius from the pressure's second moment within 2 a, a_m / a_H, the radius from the nodal
+forces' second moment within 2 a, a_F / a_H (no recovered pressure in between), and Hertz's
+ellipse fitted to the block-top pressure, p0_fit / p0 and a_fit / a_H (with the zone's a_zone / a_H
+for reference). Timings are the machine's at the time, never asserted.
 """
 from __future__ import annotations
 
@@ -75,6 +76,7 @@ def run_case(name: str, work: pathlib.Path) -> dict:
             row, last = result["rows"][-1], result["last"]
             record.update(load=row["load"], F=row["F"], p_ratio=row["p_max"] / row["p0_H"],
                           a_m_ratio=last["a_m"] / row["a_H"], a_m_H_ratio=last["a_m_H"] / row["a_H"],
+                          a_F_ratio=last["a_F"] / row["a_H"],
                           a_fit_ratio=last["a_fit"] / row["a_H"], p0_fit_ratio=last["p0_fit"] / row["p0_H"],
                           a_zone_ratio=row["a_zone"] / row["a_H"],
                           a_H=row["a_H"], gap=row["gap"])
@@ -87,21 +89,23 @@ def table(records: list[dict]) -> str:
              f"Machine: {machine()}, 1 rank per case, one case at a time. gamma 1e-5, indent 0.04 (Hertz's a "
              "about 0.217 at the full load), 20 load steps. Errors at the last converged state against Hertz at "
              "its force: the nodal peak p_max / p0, the radius from the pressure's second moment within 2 a (a_m; "
-             "'on nodes': what Hertz's own profile gives on the same nodes), Hertz's ellipse fitted to the "
+             "'on nodes': what Hertz's own profile gives on the same nodes), the radius from the nodal forces' second "
+             "moment within 2 a (a_F: no recovered pressure in between), Hertz's ellipse fitted to the "
              "nodes above 30 % of the peak (p0_fit, a_fit), the zone's a_zone for reference. Gaps: the block's "
              "smallest gap at the last state, and the smallest gap between any two bodies over the converged "
              "steps (negative: a node within the overlap tolerance inside the other body).", "",
              "| case | unknowns | load | Newton (failed) | wall | peak memory | p_max/p0 | a_m/a_H (on nodes) "
-             "| p0_fit/p0 | a_fit/a_H | a_zone/a_H | block's gap | smallest gap |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| a_F/a_H | p0_fit/p0 | a_fit/a_H | a_zone/a_H | block's gap | smallest gap |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in records:
         if "p_ratio" not in r:
             lines.append(f"| {r['case']} | {r['dofs']} | no contact | {r['newton']} ({r['newton_failed']}) "
-                         f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | | | | | | | {r['message']} |")
+                         f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | | | | | | | | {r['message']} |")
             continue
         lines.append(f"| {r['case']} | {r['dofs']:,} | {r['load']:.3g} | {r['newton']} ({r['newton_failed']}) "
                      f"| {r['wall_s'] / 60:.1f} min | {r['peak_rss_gb']:.2f} GB | {r['p_ratio']:.3f} "
-                     f"| {r['a_m_ratio']:.3f} ({r['a_m_H_ratio']:.3f}) | {r['p0_fit_ratio']:.3f} | {r['a_fit_ratio']:.3f} "
+                     f"| {r['a_m_ratio']:.3f} ({r['a_m_H_ratio']:.3f}) | {r['a_F_ratio']:.3f} | {r['p0_fit_ratio']:.3f} "
+                     f"| {r['a_fit_ratio']:.3f} "
                      f"| {r['a_zone_ratio']:.3f} | {r['gap']:.2e} | {r['min_gap']:.2e} |")
     return "\n".join(lines) + "\n"
 
@@ -122,7 +126,7 @@ def main() -> None:
         r = store.records[-1]
         print(f"  {r['dofs']} unknowns, {r['newton']} Newton iterations, {r['wall_s'] / 60:.1f} min, "
               f"{r['peak_rss_gb']:.2f} GB, p_max/p0 {r.get('p_ratio', float('nan')):.3f}, "
-              f"a_m/a_H {r.get('a_m_ratio', float('nan')):.3f}", flush=True)
+              f"a_m/a_H {r.get('a_m_ratio', float('nan')):.3f}, a_F/a_H {r.get('a_F_ratio', float('nan')):.3f}", flush=True)
     store.write(table(store.records), args.results)
 
 

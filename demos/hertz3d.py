@@ -35,9 +35,11 @@ deformed area A of the quarter contact zone (pressure above 1 % of the peak), a 
 (node-based: it over-estimates a by up to one element); ``a_p = sqrt(3 F / (2 pi p_max))``, the
 radius Hertz's profile would have with the measured peak (a_p / a = sqrt(p0 / p_max): the peak's
 error halved); and, at the last state, ``a_fit`` and ``p0_fit`` of Hertz's ellipse fitted to the
-block-top pressure above 30 % of the peak (least squares of p^2 against r^2), and ``a_m`` from the
+block-top pressure above 30 % of the peak (least squares of p^2 against r^2), ``a_m`` from the
 pressure's second moment within 2 a of the axis, a_m^2 = 5/2 int p r^2 dA / int p dA (exact for
-Hertz's profile; reported with the value Hertz's profile gives on the same nodes). The indentation is
+Hertz's profile; reported with the value Hertz's profile gives on the same nodes), and ``a_F``, the
+same moment of the medium's nodal forces on the block's top, a_F^2 = 5/2 sum f_i r_i^2 / sum f_i (no
+recovered pressure in between: exact sums for P2 faces). The indentation is
 the approach of the sphere's top and the block's bottom less the closure of the gap,
 delta = -u_z(top) - (gap - smallest gap); Hertz's delta is the approach of remote points of a
 half-space, so the table and plot also give it less Boussinesq's settlement of the axis at the
@@ -49,7 +51,7 @@ Per step the load factor, Newton iterations, reactions; at the end the last cont
 ``--out``, besides summary.json, load_path.csv, displacement.xdmf and the 3D pictures of the last
 state (``final-deformed.png``, ``final-clip.png``, ``final-pressure.png``): hertz3d.md (per
 converged step in contact: F, delta, Hertz's delta with and without the bottom's settlement,
-a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit, p0_fit and a_m), the same
+a_zone, a_p, Hertz's a, p_max, Hertz's p0; then the last state's a_fit, p0_fit, a_m and a_F), the same
 in hertz3d.json (``rows``: per step, ``last``: the last state's radii), pressure.csv
 (radius and pressure of the block's top nodes at the last state), hertz3d.png (force against
 indentation with Hertz's curves; pressure against radius with Hertz's profile).
@@ -93,7 +95,9 @@ The SFVEM on the octree block (``--method vem --block octree --h 0.2 --h-core 0.
 vertex on the axis), a_fit / a_H = 0.958, a_m / a_H = 1.037. Its pressure is recovered over the
 polyhedra's vertex patches, because the force on a single face scatters by ±28 % about Hertz's
 (docs/notes/2026-11-27-sfvem-3d-pressure.md); the patches smooth the zone's edge over about one
-face, which moves the radii. Against the P2 meshes in bench/hertz_equal_accuracy.md
+face, which moves the radii. The nodal forces' second moment, without that recovery: a_F / a_H =
+1.014 (the 0.03-core P2: 1.021, with a_m 1.004; the medium's force outside the zone counts in
+both). Against the P2 meshes in bench/hertz_equal_accuracy.md
 (docs/notes/2026-11-27-hertz-equal-accuracy.md).
 """
 from __future__ import annotations
@@ -233,7 +237,8 @@ def write_table(rows: list[dict[str, float]], last: dict[str, float], path, titl
                       f"p0_fit = {last['p0_fit']:.4g} (p0_fit/p0 = {last['p0_fit'] / r['p0_H']:.3f}); from the "
                       f"pressure's second moment within {MOMENT_WINDOW:g} a_H: a_m = {last['a_m']:.4f} (a_m/a_H = {last['a_m'] / r['a_H']:.3f}; "
                       f"Hertz's profile on the same nodes gives {last['a_m_H']:.4f}, ratio "
-                      f"{last['a_m'] / last['a_m_H']:.3f})"]
+                      f"{last['a_m'] / last['a_m_H']:.3f}); from the nodal forces' second moment within "
+                      f"{MOMENT_WINDOW:g} a_H: a_F = {last['a_F']:.4f} (a_F/a_H = {last['a_F'] / r['a_H']:.3f})"]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -241,6 +246,31 @@ def block_top_nodes(pressure: sf.ContactPressure, block: int) -> tuple[np.ndarra
     """(n, 2) deformed x, y and (n,) pressure of the block's top nodes facing the sphere."""
     on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
     return pressure.x[on_top, :2], pressure.pressure[on_top]
+
+
+def block_top_forces(pressure: sf.ContactPressure, block: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) reference x, y and (n,) medium's nodal force along -z (pressing, positive) of the
+    block's top nodes facing the sphere."""
+    on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
+    return pressure.X[on_top, :2], -pressure.force[on_top, 2]
+
+
+def force_moment_radius(XY: np.ndarray, f: np.ndarray, within: float = math.inf) -> float:
+    """Contact radius from the second moment of the nodal forces, a_F = sqrt(5/2 sum f r^2 / sum f),
+    over the nodes at reference ``XY`` (n, 2) within radius ``within`` of the axis, with nodal
+    forces ``f`` (n,) normal to the plane.
+
+    With consistent nodal forces f_i = int p phi_i dA, sum_i f_i r_i^2 = int p (sum_i phi_i r_i^2) dA =
+    int p r^2 dA whenever the faces interpolate r^2 exactly, as P2 faces on a plane do; then a_F
+    is :func:`moment_radius` without a recovered pressure or an interpolation in between (a_F = a
+    for Hertz's profile). The SFVEM's face-mean DOF carries r^2 at the face's centre instead of its
+    face mean, which differs by the face's polar moment of inertia over its area (below 1e-3 a^2 for
+    faces a tenth of a wide). NaN without force.
+    """
+    r2 = np.sum(XY ** 2, axis=1)
+    keep = r2 <= within ** 2
+    force = float(f[keep].sum())
+    return math.sqrt(2.5 * float(f[keep] @ r2[keep]) / force) if force > 0.0 else math.nan
 
 
 def radial_profile(xy: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -292,19 +322,21 @@ def ellipse_fit(rp: np.ndarray, fraction: float = FIT_FRACTION) -> tuple[float, 
     return math.sqrt(-intercept / slope), math.sqrt(intercept)
 
 
-def last_state_radii(xy: np.ndarray, p: np.ndarray, row: dict[str, float] | None) -> dict[str, float]:
+def last_state_radii(pressure: sf.ContactPressure, block: int, row: dict[str, float] | None) -> dict[str, float]:
     """The last state's ``a_fit``, ``p0_fit`` (:func:`ellipse_fit`), and with the last row's Hertz
-    radius a_H: ``a_m`` (:func:`moment_radius` within ``MOMENT_WINDOW`` a_H) and ``a_m_H``, the
-    same of Hertz's profile on the same nodes (what the nodes' linear interpolation makes of an
-    exact answer)."""
+    radius a_H, within ``MOMENT_WINDOW`` a_H of the axis: ``a_m`` (:func:`moment_radius`), ``a_m_H``,
+    the same of Hertz's profile on the same nodes (what the nodes' linear interpolation makes of an
+    exact answer), and ``a_F`` (:func:`force_moment_radius`)."""
+    xy, p = block_top_nodes(pressure, block)
     r = np.hypot(xy[:, 0], xy[:, 1])
     a_fit, p0_fit = ellipse_fit(np.stack([r, p], axis=1))
     if row is None:
-        return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": math.nan, "a_m_H": math.nan}
+        return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": math.nan, "a_m_H": math.nan, "a_F": math.nan}
     within = MOMENT_WINDOW * row["a_H"]
     hertz_p = row["p0_H"] * np.sqrt(np.clip(1 - (r / row["a_H"]) ** 2, 0.0, None))
     return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": moment_radius(xy, p, within),
-            "a_m_H": moment_radius(xy, hertz_p, within)}
+            "a_m_H": moment_radius(xy, hertz_p, within),
+            "a_F": force_moment_radius(*block_top_forces(pressure, block), within)}
 
 
 def plot(rp: np.ndarray, rows: list[dict[str, float]], stiffness: float, path, title: str) -> None:
@@ -349,14 +381,15 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         rp = radial_profile(xy, p)
         with open(args.out / "pressure.csv", "w", newline="") as f:
             csv.writer(f).writerows([["r", "p"], *rp.tolist()])
-        last = last_state_radii(xy, p, rows[-1] if rows else None)
+        last = last_state_radii(pressure, block, rows[-1] if rows else None)
         write_table(rows, last, args.out / "hertz3d.md", title)
         (args.out / "hertz3d.json").write_text(json.dumps({"rows": rows, "last": last}, indent=1))
         if rows:
             plot(rp, rows, args.stiffness, args.out / "hertz3d.png", title)
             r = rows[-1]
             print(f"final: load {r['load']:.4g}, F {r['F']:.5g}, delta {r['delta']:.4f} (Hertz {r['delta_H']:.4f}), "
-                  f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f}, a_fit {last['a_fit']:.4f}, a_m {last['a_m']:.4f} "
+                  f"a_zone {r['a_zone']:.4f}, a_p {r['a_p']:.4f}, a_fit {last['a_fit']:.4f}, a_m {last['a_m']:.4f}, "
+                  f"a_F {last['a_F']:.4f} "
                   f"(Hertz {r['a_H']:.4f}; {last['a_m_H']:.4f} on the same nodes), "
                   f"p_max {r['p_max']:.4g}, p0_fit {last['p0_fit']:.4g} (Hertz {r['p0_H']:.4g}), gap {r['gap']:.2e}",
                   flush=True)

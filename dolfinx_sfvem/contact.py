@@ -140,6 +140,9 @@ class ContactPressure:
         Normal pressure of the medium's material response on the solid (compressive positive;
         its regularization left out, docs/contact.md "Pressure recovery"), 0 at nodes on no
         medium-facing edge.
+    force : (n, 2) or (n, 3)
+        The medium's force on the solid at the node, -∂W_medium/∂ũ of its whole energy (the
+        consistent nodal force of its traction: the pairs' forces are its sums), 0 off the medium.
     body, partner_body : (n,) int
         The node's body and the body across the medium it faces (-1: none).
     zone : (n,) bool
@@ -153,6 +156,7 @@ class ContactPressure:
     X: np.ndarray
     x: np.ndarray
     pressure: np.ndarray
+    force: np.ndarray
     body: np.ndarray
     partner_body: np.ndarray
     zone: np.ndarray
@@ -383,7 +387,7 @@ def contact_pressure(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: n
         pairs.append(ContactPair(body, other, region, int(boundary.piece_tag[np.argmax(boundary.piece_body == other)]),
                                  tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_size[in_zone].sum()),
                                  float(g[on].min(initial=math.inf))))
-    return ContactPressure(boundary.X, x, p, boundary.node_body, partner_body, zone,
+    return ContactPressure(boundary.X, x, p, -f, boundary.node_body, partner_body, zone,
                            _surfaces(boundary, partner_body), pairs)
 
 
