@@ -242,16 +242,21 @@ def write_table(rows: list[dict[str, float]], last: dict[str, float], path, titl
     path.write_text("\n".join(lines) + "\n")
 
 
+def block_top(pressure: sf.ContactPressure, block: int) -> np.ndarray:
+    """(n,) bool: the boundary nodes of ``pressure`` on the block's top, facing the sphere."""
+    return (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
+
+
 def block_top_nodes(pressure: sf.ContactPressure, block: int) -> tuple[np.ndarray, np.ndarray]:
     """(n, 2) deformed x, y and (n,) pressure of the block's top nodes facing the sphere."""
-    on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
+    on_top = block_top(pressure, block)
     return pressure.x[on_top, :2], pressure.pressure[on_top]
 
 
 def block_top_forces(pressure: sf.ContactPressure, block: int) -> tuple[np.ndarray, np.ndarray]:
     """(n, 2) reference x, y and (n,) medium's nodal force along -z (pressing, positive) of the
     block's top nodes facing the sphere."""
-    on_top = (pressure.body == block) & np.isclose(pressure.X[:, 2], HERTZ3D_H) & (pressure.partner_body >= 0)
+    on_top = block_top(pressure, block)
     return pressure.X[on_top, :2], -pressure.force[on_top, 2]
 
 
