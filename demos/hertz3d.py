@@ -88,8 +88,9 @@ next failed twice in 60 iterations each (J < 0 in the medium), stopped after 50 
 ``--alpha-r 10`` (gamma = 1e-6 from the start, 0.05 core) five steps past first contact converge,
 to load 0.85 (F = 0.0046, 30 % of the full load's): p_max / p0 = 0.986, a_p / a_H = 1.007,
 indentation +0.9 %, the sphere up to 5.4e-5 inside the block (within the overlap tolerance); the
-steps beyond invert medium cells at the edge of the contact zone. alpha_r 100, HuHu, more
-cut-backs and the 0.03 core got no further (0.76-0.85; the hertz3d note).
+steps beyond invert medium cells at the edge of the contact zone. alpha_r 100, HuHu and more
+cut-backs got no further (0.76-0.85); the 0.03 core was stopped for time at 0.725 (the hertz3d
+note).
 
 The SFVEM on the octree block (``--method vem --block octree --h 0.2 --h-core 0.1``: cubes of
 0.0625 under the sphere, 38,463 unknowns, 43 min): p0_fit / p0 = 0.988, p_max / p0 = 1.122 (the
