@@ -329,12 +329,13 @@ def ellipse_fit(rp: np.ndarray, fraction: float = FIT_FRACTION) -> tuple[float, 
     return math.sqrt(-intercept / slope), math.sqrt(intercept)
 
 
-def last_state_radii(pressure: sf.ContactPressure, block: int, row: dict[str, float] | None) -> dict[str, float]:
+def last_state_radii(xy: np.ndarray, p: np.ndarray, XY: np.ndarray, f: np.ndarray,
+                     row: dict[str, float] | None) -> dict[str, float]:
     """The last state's ``a_fit``, ``p0_fit`` (:func:`ellipse_fit`), and with the last row's Hertz
     radius a_H, within ``MOMENT_WINDOW`` a_H of the axis: ``a_m`` (:func:`moment_radius`), ``a_m_H``,
     the same of Hertz's profile on the same nodes (what the nodes' linear interpolation makes of an
-    exact answer), and ``a_F`` (:func:`force_moment_radius`)."""
-    xy, p = block_top_nodes(pressure, block)
+    exact answer), and ``a_F`` (:func:`force_moment_radius`); from the block-top pressure ``xy``,
+    ``p`` (:func:`block_top_nodes`) and forces ``XY``, ``f`` (:func:`block_top_forces`)."""
     r = np.hypot(xy[:, 0], xy[:, 1])
     a_fit, p0_fit = ellipse_fit(np.stack([r, p], axis=1))
     if row is None:
@@ -343,7 +344,7 @@ def last_state_radii(pressure: sf.ContactPressure, block: int, row: dict[str, fl
     hertz_p = row["p0_H"] * np.sqrt(np.clip(1 - (r / row["a_H"]) ** 2, 0.0, None))
     return {"a_fit": a_fit, "p0_fit": p0_fit, "a_m": moment_radius(xy, p, within),
             "a_m_H": moment_radius(xy, hertz_p, within),
-            "a_F": force_moment_radius(*block_top_forces(pressure, block), within)}
+            "a_F": force_moment_radius(XY, f, within)}
 
 
 def plot(rp: np.ndarray, rows: list[dict[str, float]], stiffness: float, path, title: str) -> None:
@@ -388,7 +389,7 @@ def main(argv: typing.Sequence[str] | None = None) -> int:
         rp = radial_profile(xy, p)
         with open(args.out / "pressure.csv", "w", newline="") as f:
             csv.writer(f).writerows([["r", "p"], *rp.tolist()])
-        last = last_state_radii(pressure, block, rows[-1] if rows else None)
+        last = last_state_radii(xy, p, *block_top_forces(pressure, block), rows[-1] if rows else None)
         write_table(rows, last, args.out / "hertz3d.md", title)
         (args.out / "hertz3d.json").write_text(json.dumps({"rows": rows, "last": last}, indent=1))
         if rows:

@@ -375,6 +375,7 @@ def contact_pressure(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: n
     (n_nodes, dim) on its nodes, its largest pressure, the deformed size (``piece_size`` (m,): lengths
     or areas) of its zone and its smallest gap ``g``; and the facing surfaces."""
     n_nodes = boundary.X.shape[0]
+    force = -f                                                             # the medium's force on the solids
     partner_body = np.where(partner >= 0, boundary.piece_body[np.maximum(partner, 0)], -1)
     pairs, zone = [], np.zeros(n_nodes, dtype=bool)
     for body, other in sorted({(int(i), int(j)) for i, j in zip(boundary.node_body, partner_body) if j >= 0}):
@@ -385,9 +386,9 @@ def contact_pressure(boundary: _Pieces, x: np.ndarray, g: np.ndarray, partner: n
         in_zone = mine[boundary.pieces].all(axis=1)
         region = int(boundary.node_tag[np.argmax(on)])
         pairs.append(ContactPair(body, other, region, int(boundary.piece_tag[np.argmax(boundary.piece_body == other)]),
-                                 tuple(map(float, -f[on].sum(axis=0))), p_max, float(piece_size[in_zone].sum()),
+                                 tuple(map(float, force[on].sum(axis=0))), p_max, float(piece_size[in_zone].sum()),
                                  float(g[on].min(initial=math.inf))))
-    return ContactPressure(boundary.X, x, p, -f, boundary.node_body, partner_body, zone,
+    return ContactPressure(boundary.X, x, p, force, boundary.node_body, partner_body, zone,
                            _surfaces(boundary, partner_body), pairs)
 
 
