@@ -85,6 +85,14 @@ def xdmf_attribute(path, name: str) -> list[tuple[float, tuple[int, ...]]]:
     return out
 
 
+def assert_nodal_forces_sum_to(pressure, pair) -> None:
+    """The medium's nodal forces (``ContactPressure.force``) on the pair's nodes sum to its force,
+    and vanish on the nodes that face no medium."""
+    mine = (pressure.body == pair.body) & (pressure.partner_body == pair.partner_body)
+    np.testing.assert_allclose(pressure.force[mine].sum(axis=0), pair.force, rtol=1e-12, atol=1e-12 * abs(pair.force[2]))
+    assert np.all(pressure.force[pressure.partner_body < 0] == 0.0)
+
+
 @pytest.mark.parametrize("cell", CELLS)
 def test_uniaxial_strain_pressure_is_exact(box_grid, cell, tmp_path):
     """Rollers: the pressure at every node of both contact faces, the reaction and the pair's force
@@ -106,6 +114,7 @@ def test_uniaxial_strain_pressure_is_exact(box_grid, cell, tmp_path):
     for pair in pressure.pairs:
         assert pair.force[2] == pytest.approx(P if pair.region == 1 else -P, rel=1e-8)   # down on the lower block
         assert pair.zone_length == pytest.approx(1.0, rel=1e-12)     # the deformed area of the face
+        assert_nodal_forces_sum_to(pressure, pair)
     # the field of the output: the exact pressure at the faces' vertices, 0 at the other vertices
     field = PressureField(problem.disc.dolfinx_mesh).set(pressure)
     z = field.function_space.tabulate_dof_coordinates()[:, 2]
@@ -138,6 +147,7 @@ def test_sfvem_uniaxial_strain_pressure_is_exact(box_grid):
     for pair in pressure.pairs:
         assert pair.force[2] == pytest.approx(P if pair.region == 1 else -P, rel=1e-8)
         assert pair.zone_length == pytest.approx(1.0, rel=1e-12)
+        assert_nodal_forces_sum_to(pressure, pair)
     gap = problem.contact_gap()
     h_solid = (Z[1] - Z[0]) + (Z[3] - Z[2])
     assert gap.value == pytest.approx(Z[2] - Z[1] - PRESS - h_solid * (exact_stress_stretch() - 1.0), rel=1e-8)
