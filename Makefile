@@ -8,7 +8,7 @@
 SHELL := /bin/bash
 DEBS := python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba \
         python3-scipy python3-matplotlib python3-pytest python3-sympy python3-venv openmpi-bin
-# offscreen OpenGL for the 3D pictures (VTK's EGL window on Mesa, dolfinx_sfvem/pictures3d.py)
+# offscreen OpenGL for the 3D pictures (VTK's EGL window on Mesa, dolfinx_sfvem/output/pictures3d.py)
 DEBS += libegl1 libegl-mesa0 libgl1-mesa-dri
 # the 3D contact geometry (libigl) and pictures (PyVista, VTK) from PyPI, into the Debian venv; the
 # same pins as the `3d` extra of pyproject.toml (the DOLFINx 0.11 venv)

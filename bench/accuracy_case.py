@@ -31,7 +31,7 @@ sys.path[:0] = [str(_BENCH), str(_BENCH.parent / "demos"), str(_BENCH.parent)]
 from mpi4py import MPI  # noqa: E402
 
 import dolfinx_sfvem as sf  # noqa: E402
-from dolfinx_sfvem.run_summary import RunSummary, read_summary  # noqa: E402
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary  # noqa: E402
 
 import _common as common  # noqa: E402
 import instrument  # noqa: E402

@@ -47,9 +47,9 @@ import dolfinx.fem  # noqa: E402
 import dolfinx.fem.petsc  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
 import dolfinx_sfvem._compat  # noqa: E402
-import dolfinx_sfvem.fem  # noqa: E402
-import dolfinx_sfvem.space  # noqa: E402
-import dolfinx_sfvem.vem  # noqa: E402
+import dolfinx_sfvem.discretizations.fem  # noqa: E402
+import dolfinx_sfvem.discretizations.space  # noqa: E402
+import dolfinx_sfvem.discretizations.vem  # noqa: E402
 
 import instrument  # noqa: E402
 import problems  # noqa: E402
@@ -70,14 +70,14 @@ def patch_setup_stages(timer: instrument.StageTimer, method: str) -> None:
     timer.patch(dolfinx_sfvem._compat, "vector_function_space", "function_space")
     if method == "vem":
         timer.patch(sf.PolygonMesh, "to_dolfinx", "dolfinx_mesh")
-        timer.patch(dolfinx_sfvem.space, "build_projections", "projections")
-        timer.patch(dolfinx_sfvem.space, "compressed_polygon_quadrature", "quadrature")
-        timer.patch(dolfinx_sfvem.vem, "compile_kernels", "kernels")
-        timer.patch(dolfinx_sfvem.vem, "basis_derivative_tables", "basis_tables")
+        timer.patch(dolfinx_sfvem.discretizations.space, "build_projections", "projections")
+        timer.patch(dolfinx_sfvem.discretizations.space, "compressed_polygon_quadrature", "quadrature")
+        timer.patch(dolfinx_sfvem.discretizations.vem, "compile_kernels", "kernels")
+        timer.patch(dolfinx_sfvem.discretizations.vem, "basis_derivative_tables", "basis_tables")
     else:
-        timer.patch(dolfinx_sfvem.fem, "matched_triangulation", "remesh")
+        timer.patch(dolfinx_sfvem.discretizations.fem, "matched_triangulation", "remesh")
         timer.patch(dolfinx_sfvem._compat, "create_mesh_partitioned", "dolfinx_mesh")
-        timer.patch(dolfinx_sfvem.fem.LagrangeDiscretization, "_build_forms", "forms")
+        timer.patch(dolfinx_sfvem.discretizations.fem.LagrangeDiscretization, "_build_forms", "forms")
 
 
 def build_problem(geometry: str, h: float, method: str, comm: MPI.Comm,
@@ -121,14 +121,14 @@ def time_assembly(residual: typing.Callable, jacobian: typing.Callable, comm: MP
 def assembly_parts(method: str) -> tuple[tuple[object, str, str], ...]:
     """(owner, function, part) of the pieces of one residual and one tangent assembly."""
     if method == "vem":
-        return ((dolfinx_sfvem.vem, "residual_loop", "residual_loop"),
-                (dolfinx_sfvem.vem, "folded_elements", "injectivity_guard"),
-                (dolfinx_sfvem.vem, "tangent_loop", "tangent_loop"),
+        return ((dolfinx_sfvem.discretizations.vem, "residual_loop", "residual_loop"),
+                (dolfinx_sfvem.discretizations.vem, "folded_elements", "injectivity_guard"),
+                (dolfinx_sfvem.discretizations.vem, "tangent_loop", "tangent_loop"),
                 (dolfinx_sfvem._compat, "mat_set_values_coo", "matrix_insert"))
     return ((dolfinx.fem.petsc, "assemble_vector", "residual_form"),
             (dolfinx.fem, "assemble_scalar", "energy_form"),
             (dolfinx_sfvem._compat.CompiledExpression, "__call__", "det_F"),
-            (dolfinx_sfvem.fem, "folded_elements", "injectivity_guard"),
+            (dolfinx_sfvem.discretizations.fem, "folded_elements", "injectivity_guard"),
             (dolfinx.fem.petsc, "assemble_matrix", "tangent_form"))
 
 

@@ -48,7 +48,7 @@ sys.path[:0] = [str(_BENCH), str(_BENCH.parent / "demos"), str(_BENCH.parent)]
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-import dolfinx_sfvem.snes  # noqa: E402
+import dolfinx_sfvem.path_following.snes  # noqa: E402
 
 import cbox3d  # noqa: E402
 import instrument  # noqa: E402
@@ -76,7 +76,7 @@ def warm_up(solver: str, extra: typing.Sequence[str], comm: MPI.Comm) -> None:
 def count_krylov(solves: list[tuple[int, int]]) -> typing.Callable[[], None]:
     """Wrap ``SNESNewton._solve_once`` so that each Newton solve appends (Newton iterations, Krylov
     iterations) to ``solves``; returns the function that restores it."""
-    original = dolfinx_sfvem.snes.SNESNewton._solve_once
+    original = dolfinx_sfvem.path_following.snes.SNESNewton._solve_once
 
     @functools.wraps(original)
     def counted(self, *args, **kwargs):
@@ -85,8 +85,8 @@ def count_krylov(solves: list[tuple[int, int]]) -> typing.Callable[[], None]:
         finally:
             solves.append((int(self.snes.getIterationNumber()), int(self.snes.getLinearSolveIterations())))
 
-    dolfinx_sfvem.snes.SNESNewton._solve_once = counted
-    return lambda: setattr(dolfinx_sfvem.snes.SNESNewton, "_solve_once", original)
+    dolfinx_sfvem.path_following.snes.SNESNewton._solve_once = counted
+    return lambda: setattr(dolfinx_sfvem.path_following.snes.SNESNewton, "_solve_once", original)
 
 
 def run(grid: typing.Sequence[str], solver: str, until: float, extra: typing.Sequence[str], comm: MPI.Comm) -> dict:

@@ -44,8 +44,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE.parent / "demos"))
 import cbox3d  # noqa: E402
-from dolfinx_sfvem.benchmarks3d import CBOX3D_H, CBOX3D_T  # noqa: E402
-from dolfinx_sfvem.run_summary import RunSummary  # noqa: E402
+from dolfinx_sfvem.meshing.benchmarks3d import CBOX3D_H, CBOX3D_T  # noqa: E402
+from dolfinx_sfvem.output.run_summary import RunSummary  # noqa: E402
 from case_store import CaseStore, machine  # noqa: E402
 
 #: the initial gap between the beams (height less two walls)

@@ -29,7 +29,7 @@ sys.path.insert(0, str(HERE.parent / "demos"))
 import hertz as cb  # noqa: E402
 import _common as common  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
-from dolfinx_sfvem.snes import SNESNewton  # noqa: E402
+from dolfinx_sfvem.path_following.snes import SNESNewton  # noqa: E402
 
 
 def restored(problem: sf.ContactProblem, src: pathlib.Path) -> tuple[SNESNewton, np.ndarray, np.ndarray, float]:

@@ -10,10 +10,10 @@ Every case runs ``demos/hertz3d.py`` to the full load (indent 0.04, gamma 1e-5, 
 rotation regularization with alpha_r 1, 20 load steps, 1 rank) in a child process, one after the
 other, and reads the last state from the child's ``hertz3d.json``. The cases (:data:`CASES`):
 
-- ``octree-H-C``: the SFVEM on :func:`~dolfinx_sfvem.benchmarks3d.hertz3d_octree` (the block's
+- ``octree-H-C``: the SFVEM on :func:`~dolfinx_sfvem.meshing.benchmarks3d.hertz3d_octree` (the block's
   cubes of the largest size 2^-k within the size field, ``--h H --h-core C``, tetrahedra in the
   medium and the sphere);
-- ``graded-H-C``: P2 on :func:`~dolfinx_sfvem.benchmarks3d.hertz3d`'s tetrahedra graded by gmsh
+- ``graded-H-C``: P2 on :func:`~dolfinx_sfvem.meshing.benchmarks3d.hertz3d`'s tetrahedra graded by gmsh
   toward the contact (size H within 0.5 of it, C within 0.25, 0.4 far);
 - ``uniform-H``: P2 on tetrahedra of size H everywhere.
 

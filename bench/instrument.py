@@ -51,7 +51,7 @@ class StageTimer:
     Examples
     --------
     >>> with StageTimer() as t:                                   # doctest: +SKIP
-    ...     t.patch(dolfinx_sfvem.space, "build_projections", "projections")
+    ...     t.patch(dolfinx_sfvem.discretizations.space, "build_projections", "projections")
     ...     build_space()
     >>> t.times["projections"]["wall"]                            # doctest: +SKIP
     """

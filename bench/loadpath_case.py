@@ -45,11 +45,11 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 import dolfinx_sfvem as sf  # noqa: E402
-import dolfinx_sfvem.fem  # noqa: E402
+import dolfinx_sfvem.discretizations.fem  # noqa: E402
 import dolfinx_sfvem.problem  # noqa: E402
-import dolfinx_sfvem.run_output  # noqa: E402
-import dolfinx_sfvem.snes  # noqa: E402
-import dolfinx_sfvem.vem  # noqa: E402
+import dolfinx_sfvem.output.run_output  # noqa: E402
+import dolfinx_sfvem.path_following.snes  # noqa: E402
+import dolfinx_sfvem.discretizations.vem  # noqa: E402
 
 import _common as common  # noqa: E402
 import instrument  # noqa: E402
@@ -62,13 +62,13 @@ def patch_load_path(timer: instrument.StageTimer, disc: object) -> None:
     """Wrap the functions doing the parts of a load step (module docstring)."""
     timer.patch(type(disc), "residual", "residual")
     timer.patch(type(disc), "assemble_tangent", "tangent")
-    timer.patch(dolfinx_sfvem.snes.SNESNewton, "_residual", "residual_snes")
-    timer.patch(dolfinx_sfvem.vem, "folded_elements", "injectivity")
-    timer.patch(dolfinx_sfvem.fem, "folded_elements", "injectivity")
+    timer.patch(dolfinx_sfvem.path_following.snes.SNESNewton, "_residual", "residual_snes")
+    timer.patch(dolfinx_sfvem.discretizations.vem, "folded_elements", "injectivity")
+    timer.patch(dolfinx_sfvem.discretizations.fem, "folded_elements", "injectivity")
     timer.patch(sf.ContactProblem, "contact_state", "gap")
     timer.patch(sf.ContactProblem, "reactions", "reactions")
-    timer.patch(dolfinx_sfvem.run_output.RunWriter, "step", "output")
-    timer.patch(dolfinx_sfvem.run_output.RunWriter, "finish", "output_final")
+    timer.patch(dolfinx_sfvem.output.run_output.RunWriter, "step", "output")
+    timer.patch(dolfinx_sfvem.output.run_output.RunWriter, "finish", "output_final")
 
 
 def warm_up(demo: types.ModuleType, args: argparse.Namespace) -> None:

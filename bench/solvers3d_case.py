@@ -34,8 +34,8 @@ from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import _compat
-from dolfinx_sfvem.snes import negative_pivots
-from dolfinx_sfvem.linear_solvers import configure_ksp, linear_solver_options, rigid_body_modes
+from dolfinx_sfvem.path_following.snes import negative_pivots
+from dolfinx_sfvem.path_following.linear_solvers import configure_ksp, linear_solver_options, rigid_body_modes
 
 WALL = 0.1
 E, NU, GAMMA = 5.0, 0.3, 1e-6

@@ -27,8 +27,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "demos"))
 import _common as common  # noqa: E402
 import dolfinx_sfvem as sf  # noqa: E402
-from dolfinx_sfvem.figure_output import save_png  # noqa: E402
-from dolfinx_sfvem.snes import SNESNewton  # noqa: E402
+from dolfinx_sfvem.output.figure_output import save_png  # noqa: E402
+from dolfinx_sfvem.path_following.snes import SNESNewton  # noqa: E402
 
 
 def polygon_min_J(problem: sf.ContactProblem) -> np.ndarray:

@@ -25,9 +25,9 @@ import numpy.typing as npt
 from vem3d_solve import error_norms, solve
 
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry
-from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.projection3d import polyhedron_projections
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges, polyhedron_geometry
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.discretizations.projection3d import polyhedron_projections
 
 YOUNG, POISSON = 1.0, 0.3
 MU = YOUNG / (2 * (1 + POISSON))

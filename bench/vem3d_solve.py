@@ -11,8 +11,8 @@ Per displacement component, the scalar DOFs are numbered
     [mesh points (n_p), mesh edges (n_e, PolyhedronMesh.edges order), mesh faces (n_f), cells (n_c)]
 
 and the vector DOF of component c and scalar DOF i is ``c * n_scalar + i``. A cell's local DOFs
-are those of :mod:`dolfinx_sfvem.projection3d` for ``mesh.polyhedron(c)``: its vertices in
-increasing global index, its edges as :func:`~dolfinx_sfvem.polyhedron.polyhedron_edges` orders
+are those of :mod:`dolfinx_sfvem.discretizations.projection3d` for ``mesh.polyhedron(c)``: its vertices in
+increasing global index, its edges as :func:`~dolfinx_sfvem.mesh.polyhedron.polyhedron_edges` orders
 them (local sorted pairs = global sorted pairs, since the local numbering keeps the global order),
 its faces in the cell's face order, its mean.
 
@@ -20,9 +20,9 @@ Discrete problem
 ----------------
     sum_E int_E C eps(Pi^0_l grad u_h) : eps(Pi^0_l grad v) = sum_E int_E f . Pi^nabla_2 v
 
-(the load with Pi^nabla_2 as the 2D code does, ``dolfinx_sfvem.assemble.load_loop``), with the
+(the load with Pi^nabla_2 as the 2D code does, ``dolfinx_sfvem.discretizations.assemble.load_loop``), with the
 DOFs on boundary faces (points, edge midpoints, face means) set to those of the exact solution
-(:func:`~dolfinx_sfvem.projection3d.interpolation_dofs`: values, and face means by the element's
+(:func:`~dolfinx_sfvem.discretizations.projection3d.interpolation_dofs`: values, and face means by the element's
 face quadrature).
 
 Errors (per polyhedron with its sub-tetrahedral rule, summed)
@@ -42,11 +42,11 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from dolfinx_sfvem.elasticity import isotropic_elasticity, stiffness_from_gradient_projection_3d
-from dolfinx_sfvem.monomials3d import exponents3
-from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_quadrature
-from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.projection3d import PolyhedronProjections, interpolation_dofs, polyhedron_projections
+from dolfinx_sfvem.discretizations.elasticity import isotropic_elasticity, stiffness_from_gradient_projection_3d
+from dolfinx_sfvem.discretizations.monomials3d import exponents3
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges, polyhedron_quadrature
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.discretizations.projection3d import PolyhedronProjections, interpolation_dofs, polyhedron_projections
 
 #: degree of the polyhedron rule for the load vector and the errors (integrands are not polynomials)
 QUADRATURE_DEGREE = 6
@@ -122,7 +122,7 @@ class CellCache:
 
 def monomial_values(x: npt.NDArray[np.float64], centre: npt.NDArray[np.float64], scale: float, k: int
                     ) -> npt.NDArray[np.float64]:
-    """Scaled monomials of degree <= k (order of :mod:`dolfinx_sfvem.monomials3d`) at x (n, 3): (n, n_k)."""
+    """Scaled monomials of degree <= k (order of :mod:`dolfinx_sfvem.discretizations.monomials3d`) at x (n, 3): (n, n_k)."""
     xi = (x - centre) / scale
     return np.prod(xi[:, None, :] ** exponents3(k)[None], axis=2)
 

@@ -9,10 +9,10 @@ Shared options
 ``--method`` (vem or fem: the P2 FEM reference on a triangle mesh of the same geometry with about
 as many unknowns), ``--steps`` (the first load-factor increment is 1/steps), ``--max-increment``,
 ``--min-increment``, ``--fixed-increments``, ``--no-predictor`` (the load stepping of
-:class:`~dolfinx_sfvem.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
+:class:`~dolfinx_sfvem.path_following.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
 regularization, off unless given), ``--gamma-start`` (continuation in gamma from this value,
-:mod:`dolfinx_sfvem.gamma_continuation`), ``--quiet``, ``--resume DIR`` (continue the stopped run
+:mod:`dolfinx_sfvem.path_following.gamma_continuation`), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
 (SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
 ``--adapt-max-unknowns`` as limits; docs/refinement-local.md). Every other argument starting with a
@@ -45,8 +45,8 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import last_word
-from dolfinx_sfvem.snes import DEFAULT_PREFIX, options_from_tokens
+from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX, options_from_tokens
 
 METHODS = ("vem", "fem")
 REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
@@ -142,7 +142,7 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                         "--gamma 1e-6; docs/guide/medium.md; default: off)")
     p.add_argument("--fem-jump-penalty", type=positive_float, default=None, metavar="ETA",
                    help="--method fem only: add C0 interior-penalty terms with penalty ETA on the medium's "
-                        "interior facets (dolfinx_sfvem/fem.py; e.g. 40; default: none, as the paper's model)")
+                        "interior facets (dolfinx_sfvem/discretizations/fem.py; e.g. 40; default: none, as the paper's model)")
     p.add_argument("--quiet", action="store_true", help="no progress output, only the final lines")
     p.add_argument("--pressure-at", type=positive_float, nargs="+", default=(), metavar="LOAD",
                    help="also plot the contact pressure at these load factors "
@@ -353,7 +353,7 @@ INTERRUPTED = 130
 
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
               argv: typing.Sequence[str] | None = None) -> int:
-    """Run a demo's ``main(argv)`` with :mod:`~dolfinx_sfvem.last_word` armed (a library that ends
+    """Run a demo's ``main(argv)`` with :mod:`~dolfinx_sfvem.output.last_word` armed (a library that ends
     the process with ``exit()`` still leaves a message); expected failures become a message on stderr and exit code 2,
     any other exception its traceback and :func:`crash_message` on stderr and exit code
     :data:`CRASHED`; a second Ctrl-C (the first stops the path after its step) a one-line message

@@ -144,8 +144,8 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.benchmarks3d import CBOX3D_T
-from dolfinx_sfvem.linear_solvers import LINEAR_SOLVERS
+from dolfinx_sfvem.meshing.benchmarks3d import CBOX3D_T
+from dolfinx_sfvem.path_following.linear_solvers import LINEAR_SOLVERS
 
 import _common as common
 
@@ -233,7 +233,7 @@ def plot_curves(out, title: str) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from dolfinx_sfvem.figure_output import save_png
+    from dolfinx_sfvem.output.figure_output import save_png
 
     rows = common.read_load_path(out / "load_path.csv")
     if not rows:

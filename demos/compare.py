@@ -28,8 +28,9 @@ import sys
 import time
 import typing
 
-from dolfinx_sfvem import markdown, mpi_launcher, post
-from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from dolfinx_sfvem.output import markdown, post
+from dolfinx_sfvem import mpi_launcher
+from dolfinx_sfvem.output.run_summary import RunSummary, Step, read_summary
 
 METHODS = ("vem", "fem")
 DEMOS = pathlib.Path(__file__).resolve().parent

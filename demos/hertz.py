@@ -54,8 +54,8 @@ import typing
 import numpy as np
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary
 
 import _common as common
 

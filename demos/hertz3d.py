@@ -115,10 +115,10 @@ import numpy as np
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import exact
-from dolfinx_sfvem.benchmarks3d import HERTZ3D_H, HERTZ3D_R, SPHERE
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.quadrature import triangle_rule
-from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from dolfinx_sfvem.meshing.benchmarks3d import HERTZ3D_H, HERTZ3D_R, SPHERE
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.discretizations.quadrature import triangle_rule
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary
 
 import _common as common
 

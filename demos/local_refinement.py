@@ -27,7 +27,7 @@ import box_self_contact
 import cbox
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.run_summary import STOPPED_BY_SIGNAL
+from dolfinx_sfvem.output.run_summary import STOPPED_BY_SIGNAL
 
 #: the region where contact happens, marked on polygon centroids: C-box beam tips, box mid-span
 CONTACT_REGION = {"cbox": lambda x: x[0] > 0.5, "box": lambda x: abs(x[0] - 1.0) < 0.45}

@@ -77,8 +77,8 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import paper
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import read_summary
 
 import _common as common
 

@@ -52,9 +52,9 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import markdown
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from dolfinx_sfvem.output import markdown
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary
 
 import _common as common
 

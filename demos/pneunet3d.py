@@ -66,7 +66,7 @@ import typing
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import markdown
+from dolfinx_sfvem.output import markdown
 
 import _common as common
 import pneumatic_actuator as actuator2d

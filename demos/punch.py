@@ -70,7 +70,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import paper
-from dolfinx_sfvem.figure_output import save_png
+from dolfinx_sfvem.output.figure_output import save_png
 
 import _common as common
 

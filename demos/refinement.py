@@ -5,7 +5,7 @@
 converged with the same options and resumed when it was interrupted (the runner of
 ``results.py``). The page gives per study and mesh size, for SFVEM and FEM: unknowns, load
 reached, the smallest signed gap between the deformed solids over the whole load path (negative:
-the solids overlap; ``dolfinx_sfvem.contact``) and where it occurs, the final gap, the reaction,
+the solids overlap; ``dolfinx_sfvem.physics.contact``) and where it occurs, the final gap, the reaction,
 Newton iterations and wall time; and how the reaction changes from one mesh to the next finer.
 
 Studies (the demos' defaults unless listed):
@@ -34,8 +34,8 @@ import signal
 import sys
 import typing
 
-from dolfinx_sfvem import markdown
-from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from dolfinx_sfvem.output import markdown
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary
 from results import select_and_execute
 from results_plan import METHODS, REPO, Run
 from results_report import field, final_step, fmt, force, machine, method_label, relative, status

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pathlib
 import typing
 
-from dolfinx_sfvem.run_output import CHECKPOINT
-from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem.output.run_output import CHECKPOINT
+from dolfinx_sfvem.output.run_summary import RunSummary
 
 
 def run_state(summary: RunSummary | None, wanted: typing.Mapping[str, typing.Any], out: pathlib.Path) -> str:
@@ -15,7 +15,7 @@ def run_state(summary: RunSummary | None, wanted: typing.Mapping[str, typing.Any
     Parameters
     ----------
     summary
-        From :func:`~dolfinx_sfvem.run_summary.read_summary` (None: no readable summary.json).
+        From :func:`~dolfinx_sfvem.output.run_summary.read_summary` (None: no readable summary.json).
     wanted
         The parameters the run is to have; one stored with another value makes it ``other``
         (parameters the summary does not store are not compared).

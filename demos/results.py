@@ -57,7 +57,7 @@ import signal
 import sys
 import typing
 
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.output.run_summary import read_summary
 from results_plan import REPO, Run, clock, plan, select
 from results_report import overall, write_report
 from results_runner import execute, remaining, state

@@ -19,9 +19,10 @@ import subprocess
 import typing
 
 import compare
-from dolfinx_sfvem import markdown, paper, post
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from dolfinx_sfvem.output import markdown, post
+from dolfinx_sfvem import paper
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import RunSummary, Step, read_summary
 from results_plan import (EXAMPLES, METHOD_NAMES, METHODS, REPO, TABLE2_DIR, Case, Example, Run, clock,
                           run_name, sweep_dirs, table2_dirs, table3_dirs)
 

@@ -15,8 +15,8 @@ import time
 import typing
 
 from dolfinx_sfvem import mpi_launcher
-from dolfinx_sfvem.run_output import HDF5_SIGNATURE
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.output.run_output import HDF5_SIGNATURE
+from dolfinx_sfvem.output.run_summary import read_summary
 from restart import run_state
 from results_plan import DEMOS, Run, clock, sweep_dirs
 

@@ -54,9 +54,10 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import exact, markdown
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import RunSummary, read_summary
+from dolfinx_sfvem import exact
+from dolfinx_sfvem.output import markdown
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import RunSummary, read_summary
 
 import _common as common
 
@@ -165,7 +166,7 @@ def inside_chords(arc_vertices: np.ndarray) -> typing.Callable[[np.ndarray], np.
 
 def exact_field(answer: Answer, in_medium: typing.Callable[[np.ndarray], np.ndarray] | None):
     """``u_exact(X) -> (2, n)`` and ``grad_exact(X) -> (2, 2, n)`` of the radial answer in Cartesian
-    components, for :meth:`~dolfinx_sfvem.discretization.Discretization.error_norms`:
+    components, for :meth:`~dolfinx_sfvem.discretizations.discretization.Discretization.error_norms`:
     u = (lambda_theta - 1) X and grad u = (lambda_theta - 1) I + (lambda_r - lambda_theta) e_r e_r,
     with lambda_r = lambda_theta = c in the medium."""
     def stretches(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

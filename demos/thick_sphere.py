@@ -124,9 +124,10 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import exact, markdown
-from dolfinx_sfvem.figure_output import save_png
-from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem import exact
+from dolfinx_sfvem.output import markdown
+from dolfinx_sfvem.output.figure_output import save_png
+from dolfinx_sfvem.output.run_summary import RunSummary
 
 import _common as common
 

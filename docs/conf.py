@@ -30,7 +30,7 @@ myst_enable_extensions = ["colon_fence", "deflist"]
 autodoc_member_order = "bysource"
 autodoc_typehints = "signature"
 # the indicator type by its name (expanded, numpy.bool_ reads as a reStructuredText link target)
-autodoc_type_aliases = {"Indicator": "dolfinx_sfvem.adaptivity.Indicator"}
+autodoc_type_aliases = {"Indicator": "dolfinx_sfvem.path_following.adaptivity.Indicator"}
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 napoleon_use_rtype = False

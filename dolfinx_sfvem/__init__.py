@@ -28,21 +28,21 @@ linear_elastic_stiffness
 meshes
     The paper's geometries (benchmarks.py) and the mesh-making tools (meshing/) in one namespace.
 """
-from . import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
-from . import meshes
-from .adaptivity import Adaptivity, Compression, NearContact
-from .arclength import ArcLength
-from .cell_mesh import CellMesh
-from .elasticity import linear_elastic_stiffness
-from .energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
-from .discretization import Discretization
-from .fem import LagrangeDiscretization
-from .polygon_mesh import PolygonMesh
-from .problem import ContactProblem
-from .snes import SolveFailed
-from .stepping import LoadStepping
-from .space import VEMSpace
-from .vem import SFVEMDiscretization
+from dolfinx_sfvem import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
+from dolfinx_sfvem import meshes
+from dolfinx_sfvem.path_following.adaptivity import Adaptivity, Compression, NearContact
+from dolfinx_sfvem.path_following.arclength import ArcLength
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness
+from dolfinx_sfvem.physics.energy import Energy, Hyperelastic, ThirdMedium, UserEnergy
+from dolfinx_sfvem.discretizations.discretization import Discretization
+from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.problem import ContactProblem
+from dolfinx_sfvem.path_following.snes import SolveFailed
+from dolfinx_sfvem.path_following.stepping import LoadStepping
+from dolfinx_sfvem.discretizations.space import VEMSpace
+from dolfinx_sfvem.discretizations.vem import SFVEMDiscretization
 
 __version__ = "0.1.0"
 

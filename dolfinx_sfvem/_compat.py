@@ -51,7 +51,7 @@ import dolfinx.jit
 import dolfinx.la
 import dolfinx.mesh
 
-from .compile_lock import compiling
+from dolfinx_sfvem.discretizations.compile_lock import compiling
 
 try:
     import basix.ufl as _basix_ufl     # the elements of DOLFINx 0.11 (0.5 uses UFL's)

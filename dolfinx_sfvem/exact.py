@@ -292,7 +292,7 @@ def lame_sphere(a: float, b: float, K: float, mu: float, p: float) -> LameSoluti
 class CavityMedium:
     """A third medium filling the hole R < a and carrying the cavity pressure p: energy density
     ``gamma Psi_m(F) - p (J - 1)`` with ``Psi_m`` of paper Eq. 4 (Eq. 5 when K = 0), as
-    :class:`~dolfinx_sfvem.energy.ThirdMedium` with a pressure term (module docstring).
+    :class:`~dolfinx_sfvem.physics.energy.ThirdMedium` with a pressure term (module docstring).
 
     Attributes
     ----------

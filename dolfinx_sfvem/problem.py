@@ -29,21 +29,21 @@ import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import post
-from .adaptivity import Adaptivity
-from .cell_mesh import CellMesh
-from .contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
-from .energy import Energy
-from .equilibrium import Equilibrium
-from .linear_solvers import linear_solver_options
-from .loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
-from .polygon_mesh import PolygonMesh
-from .polyhedron_mesh import PolyhedronMesh
-from .refine import Refinement, refine_mesh
-from .run_summary import Observer, Result
-from .snes import DEFAULT_PREFIX
-from .state_transfer import transfer_state
-from .stepping import Control, LoadStepping
+from dolfinx_sfvem.output import post
+from dolfinx_sfvem.path_following.adaptivity import Adaptivity
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
+from dolfinx_sfvem.physics.energy import Energy
+from dolfinx_sfvem.physics.equilibrium import Equilibrium
+from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options
+from dolfinx_sfvem.physics.loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.mesh.refine import Refinement, refine_mesh
+from dolfinx_sfvem.output.run_summary import Observer, Result
+from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX
+from dolfinx_sfvem.discretizations.state_transfer import transfer_state
+from dolfinx_sfvem.path_following.stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
@@ -106,7 +106,7 @@ def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh | PolyhedronMesh:
     if isinstance(mesh, tuple) and len(mesh) == 2:
         mesh = CellMesh.from_dolfinx(*mesh)
     if isinstance(mesh, CellMesh) and mesh.tdim == 2:
-        from ._compat import COUNTER_CLOCKWISE
+        from dolfinx_sfvem._compat import COUNTER_CLOCKWISE
         polygons = PolygonMesh(mesh.points, mesh.cells[:, COUNTER_CLOCKWISE[mesh.cells.shape[1]]], mesh.tags,
                                insert_hanging_nodes=False)
         polygons.region_names.update(mesh.region_names)
@@ -140,28 +140,28 @@ class ContactProblem:
     Parameters
     ----------
     mesh
-        Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.cell_mesh.CellMesh`; or a pair
+        Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`; or a pair
         ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (affine) and
-        its region tags (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh`
+        its region tags (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`
         (octree, Voronoi, extruded polygons; ``method="vem"`` only).
     materials
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).
     method
         ``"vem"`` (order-2 SFVEM on the polygons; in 3D on the polyhedra, a tetrahedral or hexahedral
-        mesh's cells read as polyhedra, :class:`~dolfinx_sfvem.vem3d.PolyhedralDiscretization`) or
+        mesh's cells read as polyhedra, :class:`~dolfinx_sfvem.discretizations.vem3d.PolyhedralDiscretization`) or
         ``"fem"`` (P2 Lagrange triangles on the same geometry and regions,
-        :class:`~dolfinx_sfvem.fem.LagrangeDiscretization`; in 3D P2 on tetrahedra, Q2 on
+        :class:`~dolfinx_sfvem.discretizations.fem.LagrangeDiscretization`; in 3D P2 on tetrahedra, Q2 on
         hexahedra, the cells of the mesh).
     comm
         MPI communicator.
     overlap_tolerance
         A converged state in which a boundary node of a solid lies deeper inside a solid than
         this fraction of the local boundary edge length is rejected like a failed step
-        (:mod:`~dolfinx_sfvem.contact`; the run stops when cutting the increment does not help).
+        (:mod:`~dolfinx_sfvem.physics.contact`; the run stops when cutting the increment does not help).
     petsc_options
         PETSc options of this problem's solvers, keys without prefix (e.g. ``{"snes_monitor":
         None, "ksp_type": "gmres"}``); they win over the command line, which wins over the
-        defaults (:mod:`~dolfinx_sfvem.snes`). Never put into PETSc's global database beyond
+        defaults (:mod:`~dolfinx_sfvem.path_following.snes`). Never put into PETSc's global database beyond
         the moment a solver reads them.
     petsc_options_prefix
         Options prefix of this problem's solvers: command-line options reach them as
@@ -169,13 +169,13 @@ class ContactProblem:
     linear_solver
         ``"direct"`` (default: MUMPS LDLᵀ, with the tangent's negative pivots) or ``"iterative"``
         (GMRES + p-multigrid: MUMPS on the degree-1 coarse space, for large 3D problems; no
-        negative pivots; :mod:`~dolfinx_sfvem.linear_solvers`, docs/guide/solving.md);
+        negative pivots; :mod:`~dolfinx_sfvem.path_following.linear_solvers`, docs/guide/solving.md);
         ``petsc_options`` and the command line win over it.
     **options
         Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
         ``l``, ``l_min`` for ``"vem"`` (and ``quadrature`` in 3D); ``fem_h`` for ``"fem"`` (triangle size; default
         None: matched to the SFVEM unknowns of ``mesh``, see
-        :func:`~dolfinx_sfvem.remesh.matched_triangulation`).
+        :func:`~dolfinx_sfvem.mesh.remesh.matched_triangulation`).
 
     Attributes
     ----------
@@ -185,7 +185,7 @@ class ContactProblem:
     disc : Discretization
         The discretization of the current mesh.
     x : PETSc.Vec
-        The state: nodal displacements (layout of :mod:`~dolfinx_sfvem.discretization`).
+        The state: nodal displacements (layout of :mod:`~dolfinx_sfvem.discretizations.discretization`).
     load : float
         Load factor λ of the state (0 in the reference state; set by :meth:`solve`).
     bcs : list of BoundaryCondition
@@ -233,21 +233,21 @@ class ContactProblem:
         self.mesh = mesh
         options = {k: v for k, v in self._options.items() if k != "overlap_tolerance"}
         if self.method == "vem" and self.gdim == 3:
-            from .vem3d import PolyhedralDiscretization
+            from dolfinx_sfvem.discretizations.vem3d import PolyhedralDiscretization
             polyhedra = mesh if isinstance(mesh, PolyhedronMesh) else PolyhedronMesh.from_cell_mesh(mesh)
             self.disc = PolyhedralDiscretization(polyhedra, self.materials, self.comm, **options)
         elif self.method == "vem":
-            from .vem import SFVEMDiscretization
+            from dolfinx_sfvem.discretizations.vem import SFVEMDiscretization
             self.disc = SFVEMDiscretization(mesh, self.materials, self.comm, **options)
         elif isinstance(mesh, CellMesh):
-            from .fem import LagrangeDiscretization
+            from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
             unknown = sorted(set(options) - {"verbose", "quadrature_degree"})
             if unknown:
                 raise ValueError(f"option(s) {', '.join(unknown)} not available on a 3D mesh (its cells are the "
                                  "FEM's cells); give verbose and quadrature_degree only")
             self.disc = LagrangeDiscretization.from_cell_mesh(mesh, self.materials, self.comm, **options)
         else:
-            from .fem import LagrangeDiscretization
+            from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
             self.disc = LagrangeDiscretization.from_polygon_mesh(mesh, self.materials, self.comm, **options)
         self.boundary = solid_boundary(self.disc.output_mesh,
                                        [tag for tag, energy in self.materials.items() if not energy.is_medium],
@@ -362,7 +362,7 @@ class ContactProblem:
         boundary edges of ``where``: a marker function of the coordinates (2, n) -> (n,) bool
         (the edges whose vertices and midpoint it selects) or region tags/names (the boundary
         edges of those regions). Paper Eq. 1, the t̄ term. In 3D ``t`` = (t_x, t_y, t_z) per unit
-        reference area on the boundary faces (:mod:`~dolfinx_sfvem.face_loads`)."""
+        reference area on the boundary faces (:mod:`~dolfinx_sfvem.physics.face_loads`)."""
         t = self._finite_vector(t, name, "t")
         return self._add_load(Traction(name, self._where(where, name), t))
 
@@ -439,7 +439,7 @@ class ContactProblem:
 
     def equilibrium(self) -> Equilibrium:
         """The balance R(u; λ) with the loads bound to the current discretization (collective;
-        :mod:`~dolfinx_sfvem.equilibrium`)."""
+        :mod:`~dolfinx_sfvem.physics.equilibrium`)."""
         bound = dict((id(load), b) for load, b in self._bound)
         for load in self.loads:
             if id(load) not in bound:
@@ -507,7 +507,7 @@ class ContactProblem:
 
     def contact_gap(self) -> Gap:
         """The smallest signed gap between the deformed solids at the current state, with where
-        it occurs (collective; :mod:`~dolfinx_sfvem.contact`)."""
+        it occurs (collective; :mod:`~dolfinx_sfvem.physics.contact`)."""
         return self.boundary.gap_of_state(self.comm, *self.disc.output_state(self.x))
 
     def contact_pressure(self) -> ContactPressure:
@@ -515,7 +515,7 @@ class ContactProblem:
         material response, its regularization left out; docs/contact.md), and per pair of
         bodies facing each other across the medium the total contact force, the largest pressure,
         the contact zone's length and the smallest gap, at the current state (collective; the
-        result on every rank; :mod:`~dolfinx_sfvem.contact`)."""
+        result on every rank; :mod:`~dolfinx_sfvem.physics.contact`)."""
         return self.contact_state()[1]
 
     def contact_state(self) -> tuple[Gap, ContactPressure]:
@@ -555,7 +555,7 @@ class ContactProblem:
         The discretization is rebuilt on the refined mesh (same materials and options), the
         boundary conditions are kept (markers are evaluated again on the new nodes, tags select
         the same regions) and the state is transferred exactly for quadratic fields
-        (:func:`~dolfinx_sfvem.state_transfer.transfer_state`, docs/refinement-local.md).
+        (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_state`, docs/refinement-local.md).
 
         Parameters
         ----------
@@ -609,10 +609,10 @@ class ContactProblem:
 
         Prescribed displacements and loads are ramped together by the load factor λ. The
         control decides how: by default λ is prescribed in ``steps`` increments with Newton's
-        method at each (:class:`~dolfinx_sfvem.stepping.LoadStepping`); with
+        method at each (:class:`~dolfinx_sfvem.path_following.stepping.LoadStepping`); with
         ``control=ArcLength(...)`` λ follows from an arc-length constraint, through limit points
-        (:class:`~dolfinx_sfvem.arclength.ArcLength`). The driver is
-        :class:`~dolfinx_sfvem.load_path.LoadPath`.
+        (:class:`~dolfinx_sfvem.path_following.arclength.ArcLength`). The driver is
+        :class:`~dolfinx_sfvem.path_following.load_path.LoadPath`.
 
         Parameters
         ----------
@@ -650,7 +650,7 @@ class ContactProblem:
             Load factor at which the path stops, in (0, 1]; ``converged`` means it was reached.
         adapt
             Refine the medium during the path where ``adapt.indicator`` says, after converged
-            steps (:class:`~dolfinx_sfvem.adaptivity.Adaptivity`, docs/refinement-local.md; SFVEM
+            steps (:class:`~dolfinx_sfvem.path_following.adaptivity.Adaptivity`, docs/refinement-local.md; SFVEM
             only). Each refinement is followed by a re-balancing step at the same load.
         pressure_at
             Load factors at which ``out`` gets a plot of the contact pressure along the solids'
@@ -659,10 +659,10 @@ class ContactProblem:
         handle_signals
             Ctrl-C and SIGTERM stop the path after the current step (a second Ctrl-C interrupts
             at once); None (default): in a script's main thread, not in a Jupyter kernel, where
-            Ctrl-C interrupts at once (:mod:`~dolfinx_sfvem.interrupt`). An interrupted path keeps
+            Ctrl-C interrupts at once (:mod:`~dolfinx_sfvem.path_following.interrupt`). An interrupted path keeps
             its converged steps: the state is put back to the last one and the outputs written.
         gamma_start
-            Continuation in the third medium's gamma (:mod:`~dolfinx_sfvem.gamma_continuation`):
+            Continuation in the third medium's gamma (:mod:`~dolfinx_sfvem.path_following.gamma_continuation`):
             every :class:`ThirdMedium` starts the path at this gamma, which falls log-linearly with
             the load factor to the medium's own gamma at ``until``; for a very weak medium that
             otherwise stalls or ends on an unstable state (docs/guide/medium.md). Default: off.
@@ -685,7 +685,7 @@ class ContactProblem:
         elif steps is not None or min_increment is not None:
             raise ValueError("steps and min_increment belong to the default load stepping; with a control "
                              "give them to the control")
-        from .load_path import LoadPath        # the driver of a problem's path (it imports this module)
+        from dolfinx_sfvem.path_following.load_path import LoadPath        # the driver of a problem's path (it imports this module)
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,

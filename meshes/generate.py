@@ -31,9 +31,10 @@ import typing
 
 import numpy as np
 
-from dolfinx_sfvem import markdown, meshes, paper, post
-from dolfinx_sfvem.polygon_mesh import PolygonMesh
-from dolfinx_sfvem.projection import build_projections
+from dolfinx_sfvem.output import markdown, post
+from dolfinx_sfvem import meshes, paper
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.discretizations.projection import build_projections
 
 HERE = pathlib.Path(__file__).resolve().parent
 #: the demos' default mesh sizes

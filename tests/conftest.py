@@ -30,8 +30,8 @@ from mpi4py import MPI
 from scipy.spatial import ConvexHull
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.monomials import evaluate_monomials, n_monomials
-from dolfinx_sfvem.projection import build_projections
+from dolfinx_sfvem.discretizations.monomials import evaluate_monomials, n_monomials
+from dolfinx_sfvem.discretizations.projection import build_projections
 
 
 def shared(helper, name: str | None = None):
@@ -697,7 +697,7 @@ def global_dofs(cells) -> tuple[list[np.ndarray], np.ndarray]:
     position: per cell its global DOF indices in the element's local order (vertices, edges,
     faces, cell), and the DOF locations (n, 3) (vertex, edge midpoint, face centroid, cell
     centroid: a linear field's DOFs are its values there)."""
-    from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry
+    from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges, polyhedron_geometry
 
     keys: dict = {}
     locations = []

@@ -1,4 +1,4 @@
-"""Adaptive refinement of the third medium during a load path (dolfinx_sfvem/adaptivity.py).
+"""Adaptive refinement of the third medium during a load path (dolfinx_sfvem/path_following/adaptivity.py).
 
 References from outside the code under test: J of a homogeneous compression computed by hand,
 the polygons an indicator marks recomputed from the mesh, the unknowns of a rebuilt
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.adaptivity import smallest_J
-from dolfinx_sfvem.node_keys import sfvem_unknowns
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.path_following.adaptivity import smallest_J
+from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
+from dolfinx_sfvem.output.run_summary import read_summary
 from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 

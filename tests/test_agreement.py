@@ -18,7 +18,7 @@ import pytest
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem.output.run_summary import RunSummary
 
 import compare
 

@@ -1,4 +1,4 @@
-"""Arc-length control (dolfinx_sfvem/arclength.py): a shallow clamped arch snapping through under a
+"""Arc-length control (dolfinx_sfvem/path_following/arclength.py): a shallow clamped arch snapping through under a
 force at its apex.
 
 - The path passes the upper limit point (the load factor falls after it), records the unstable
@@ -165,7 +165,7 @@ def test_failed_bordered_attempts_record_their_snes_reason():
     warnings = []
     handler = logging.Handler(logging.WARNING)
     handler.emit = warnings.append
-    logger = logging.getLogger("dolfinx_sfvem.arclength")
+    logger = logging.getLogger("dolfinx_sfvem.path_following.arclength")
     logger.addHandler(handler)
     try:
         result = problem.solve(control=sf.ArcLength(load_step=0.05, min_shrink=2.0 ** -3, max_steps=2),

@@ -18,7 +18,8 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.space import INTERIOR
+from dolfinx_sfvem.discretizations.discretization import AssemblyInfo
+from dolfinx_sfvem.discretizations.space import INTERIOR
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM
@@ -126,7 +127,7 @@ def as_vector(disc: sf.SFVEMDiscretization, values: np.ndarray):
     return x
 
 
-def residual(disc: sf.SFVEMDiscretization, values: np.ndarray) -> tuple[np.ndarray, sf.discretization.AssemblyInfo]:
+def residual(disc: sf.SFVEMDiscretization, values: np.ndarray) -> tuple[np.ndarray, AssemblyInfo]:
     """Nodal residual (n_nodes, 2) (Eq. 52) and the assembly info (energy, Eq. 46)."""
     b = disc.create_vector()
     info = disc.residual(as_vector(disc, values), b)

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.cell_mesh import CellMesh, facet_normals
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh, facet_normals
 
 def divergence_checks(mesh, facets, volume):
     """Σ N dA = 0 and ⅓ Σ x·N dA = volume on a closed surface of outward normals."""

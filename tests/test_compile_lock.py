@@ -1,4 +1,4 @@
-"""The compile lock (dolfinx_sfvem/compile_lock.py): FFCx's JIT entry points run under an exclusive
+"""The compile lock (dolfinx_sfvem/discretizations/compile_lock.py): FFCx's JIT entry points run under an exclusive
 ``flock`` of their cache directory while the package compiles, on every rank, and are FFCx's own
 again afterwards; a compile interrupted by Ctrl-C leaves no ``.c`` file that later runs would wait
 for. (Processes started together: tests/test_concurrent_starts.py.)"""
@@ -9,7 +9,7 @@ import time
 import ffcx.codegeneration.jit
 import pytest
 
-from dolfinx_sfvem import compile_lock
+from dolfinx_sfvem.discretizations import compile_lock
 
 
 def locked_by_another(cache_dir) -> bool:

@@ -1,4 +1,4 @@
-"""The compiled pointwise kernels in 3D (dolfinx_sfvem.compiled_energy with dim=3, paper Eqs. 30, 32).
+"""The compiled pointwise kernels in 3D (dolfinx_sfvem.discretizations.compiled_energy with dim=3, paper Eqs. 30, 32).
 
 References from outside the code under test (conftest.py's ``by_hand``): Psi written with numpy
 (Eq. 2 and Eqs. 3, 6, 8), and central finite differences of it: P = dPsi/dF, T = dPsi/dG, then
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem import Hyperelastic, ThirdMedium
-from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate, shapes
+from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels, evaluate, shapes
 
 SOLID = Hyperelastic(K=5.0, mu=1.5)
 MEDIUM = ThirdMedium(mu=1.5, gamma=0.3, alpha_r=0.7, regularization="huhu", beta=0.4, K=2.0)

@@ -5,7 +5,7 @@ cache. FFCx makes a process that finds another's compile of the same form under 
 end and give up after DOLFINx's ``timeout`` (10 s by default); the runs here set it to 1 s
 (``dolfinx_jit_parameters.json`` / ``dolfinx_jit_options.json`` in their working directory), so
 a run that ever waits in that loop fails at once instead of on a loaded machine only: with the
-package's compile lock (dolfinx_sfvem/compile_lock.py) no run waits there, whatever the timeout.
+package's compile lock (dolfinx_sfvem/discretizations/compile_lock.py) no run waits there, whatever the timeout.
 """
 import json
 import os

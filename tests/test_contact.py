@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.contact import OVERLAP_TOLERANCE
-from dolfinx_sfvem.injectivity import folded_elements
+from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE
+from dolfinx_sfvem.discretizations.injectivity import folded_elements
+from dolfinx_sfvem.physics.energy import neo_hookean
 from dolfinx_sfvem.problem import Result
 from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
@@ -276,7 +277,7 @@ def test_pressure_of_a_uniformly_compressed_layer(method, mesh):
 
 
 def neo_hookean_medium(F, G, gamma, mu, K):
-    return gamma * sf.energy.neo_hookean(F, K, mu)
+    return gamma * neo_hookean(F, K, mu)
 
 
 @pytest.mark.parametrize("method", ["vem", "fem"])
@@ -380,7 +381,7 @@ def test_cbox_pair_force_is_the_whole_medium_force(cbox_end_state):
 def test_segments_cross_on_touching_and_collinear_segments(p, q, r, s, meet):
     """The guard's segment test (injectivity.segments_cross) on the closed segments [p, q], [r, s],
     in both orders of the two segments and of their end points."""
-    from dolfinx_sfvem.injectivity import segments_cross
+    from dolfinx_sfvem.discretizations.injectivity import segments_cross
     for a, b in ((p, q), (q, p)):
         for c, d in ((r, s), (s, r)):
             assert segments_cross(*map(float, (*a, *b, *c, *d))) is meet
@@ -390,7 +391,7 @@ def test_segments_cross_on_touching_and_collinear_segments(p, q, r, s, meet):
 def test_load_path_csv_has_three_columns_per_vector_in_3d(tmp_path):
     """A 3D step's gap position, reactions and contact forces have three components: three columns
     each, in the header and in the row (a 2D header would shift every later column)."""
-    from dolfinx_sfvem.post import write_load_path_csv
+    from dolfinx_sfvem.output.post import write_load_path_csv
     step = {"step": 1, "load": 0.5, "newton_iterations": 3, "converged": True, "negative_pivots": 0,
             "gap": {"value": 0.1, "x": [1.0, 2.0, 3.0]}, "reaction": {"load": [4.0, 5.0, 6.0]},
             "contact": [{"body": 0, "partner_body": 1, "force": [7.0, 8.0, 9.0], "max_pressure": 10.0,

@@ -13,10 +13,10 @@ import scipy.sparse
 import scipy.sparse.linalg
 import sympy
 
-from dolfinx_sfvem.elasticity import linear_elastic_stiffness_3d
-from dolfinx_sfvem.monomials3d import exponents3
-from dolfinx_sfvem.polyhedron import polyhedron_quadrature
-from dolfinx_sfvem.projection3d import interpolation_dofs, polyhedron_projections
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness_3d
+from dolfinx_sfvem.discretizations.monomials3d import exponents3
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_quadrature
+from dolfinx_sfvem.discretizations.projection3d import interpolation_dofs, polyhedron_projections
 
 YOUNG, POISSON = 3.0, 0.3
 

@@ -12,7 +12,7 @@ import numpy as np
 import hertz
 import pytest
 
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.output.run_summary import read_summary
 from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 

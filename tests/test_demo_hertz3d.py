@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hertz3d
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.output.run_summary import read_summary
 
 #: coarse mesh (h = 0.15 within 0.4 of the contact point, 0.12 within 0.15 of it); the sphere closes
 #: the gap 0.1 and indents the block by 0.005 in 5 steps
@@ -61,7 +61,7 @@ def test_moment_radius_of_hertz_profile():
 def p2_nodal_forces(pressure, L: float = 0.6, n: int = 30) -> tuple[np.ndarray, np.ndarray]:
     """Nodes (m, 2) of P2 triangles on [0, L]^2 (n x n squares, two triangles each) and the consistent
     nodal forces (m,) int p phi_i dA of ``pressure`` (a function of (k, 2) points), by a degree-12 rule."""
-    from dolfinx_sfvem.quadrature import triangle_rule
+    from dolfinx_sfvem.discretizations.quadrature import triangle_rule
 
     t = np.linspace(0.0, L, 2 * n + 1)                     # vertices at even, midpoints at odd indices
     index = np.arange(t.size ** 2).reshape(t.size, t.size)

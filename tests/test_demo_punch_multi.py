@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.run_summary import RunSummary, Step, read_summary
+from dolfinx_sfvem.output.run_summary import RunSummary, Step, read_summary
 from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
 

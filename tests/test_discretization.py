@@ -1,4 +1,4 @@
-"""The discretization contract (dolfinx_sfvem.discretization, docs/architecture.md), for both methods.
+"""The discretization contract (dolfinx_sfvem.discretizations.discretization, docs/architecture.md), for both methods.
 
 - Both classes implement every abstract member.
 - Constraints registered once: constrained rows and columns of the tangent are identity rows and
@@ -13,7 +13,7 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.discretization import Constraints, Discretization
+from dolfinx_sfvem.discretizations.discretization import Constraints, Discretization
 
 
 def discretization(method: str, materials: dict) -> Discretization:

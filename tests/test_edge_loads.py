@@ -1,4 +1,4 @@
-"""Loads on boundary edges with quadratic traces (dolfinx_sfvem/edge_loads.py, docs/guide/loads.md).
+"""Loads on boundary edges with quadratic traces (dolfinx_sfvem/physics/edge_loads.py, docs/guide/loads.md).
 
 References are independent of the module: a 12-point Gauss rule written here, hand-integrated
 shape-function moments, exact resultants (Σ f = -p (x_end - x_start) × e_z, zero moment on a
@@ -8,7 +8,7 @@ curve (whose error is exactly C/n² for a quadratic curve, so one Richardson ste
 import numpy as np
 import pytest
 
-from dolfinx_sfvem import edge_loads as el
+from dolfinx_sfvem.physics import edge_loads as el
 
 P = 1.7
 #: central differences of functions at most quadratic in u: only round-off remains

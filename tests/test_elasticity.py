@@ -5,7 +5,7 @@ The test polygons, the zero-eigenvalue table and the reference maths are conftes
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.elasticity import linear_elastic_stiffness
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness
 
 YOUNG, POISSON = 7.0, 0.3
 

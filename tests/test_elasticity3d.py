@@ -1,5 +1,5 @@
 """Linear-elastic SFVEM element on polyhedra: rank, rigid motions, patch test, exact energy
-(dolfinx_sfvem.elasticity.linear_elastic_stiffness_3d; docs/method.md §8).
+(dolfinx_sfvem.discretizations.elasticity.linear_elastic_stiffness_3d; docs/method.md §8).
 
 References from outside the code under test: the rigid motions and linear fields evaluated
 directly, Hooke's law by hand, the equivalent nodal forces of a constant traction (on a face,
@@ -9,9 +9,9 @@ quadratic field integrated with the sub-tetrahedral rule (test_polyhedron checks
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.elasticity import isotropic_elasticity, linear_elastic_stiffness_3d
-from dolfinx_sfvem.polyhedron import polyhedron_geometry, polyhedron_quadrature
-from dolfinx_sfvem.projection3d import interpolation_dofs
+from dolfinx_sfvem.discretizations.elasticity import isotropic_elasticity, linear_elastic_stiffness_3d
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_geometry, polyhedron_quadrature
+from dolfinx_sfvem.discretizations.projection3d import interpolation_dofs
 
 YOUNG, POISSON = 7.0, 0.3
 _cache: dict[str, tuple[np.ndarray, int]] = {}

@@ -1,4 +1,4 @@
-"""The SFVEM's cavity pressure from the deformed boundary trace (dolfinx_sfvem/enclosed_area.py):
+"""The SFVEM's cavity pressure from the deformed boundary trace (dolfinx_sfvem/physics/enclosed_area.py):
 −p ∫ (J − 1) dΩ as −p times the change of the area enclosed by the deformed quadratic edges.
 
 - For random nodal displacements the term's area change equals the area of the deformed
@@ -17,7 +17,7 @@ from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.energy import VolumeWork
+from dolfinx_sfvem.physics.energy import VolumeWork
 import thick_cylinder as tc
 
 COMM = MPI.COMM_WORLD

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 import ufl
 
-from dolfinx_sfvem.energy import REGULARIZATIONS, Hyperelastic, ThirdMedium, UserEnergy
-from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate, tabulate
+from dolfinx_sfvem.physics.energy import REGULARIZATIONS, Hyperelastic, ThirdMedium, UserEnergy
+from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels, evaluate, tabulate
 
 STEP = 1e-5  # central differences: truncation ~ STEP^2, round-off ~ 1e-16 / STEP
 RTOL = 1e-6

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import ufl
 
-from dolfinx_sfvem.energy import (REGULARIZATIONS, Hyperelastic, ThirdMedium, huhu_lulu, rotation_angle,
-                                  tan_rotation_angle)
+from dolfinx_sfvem.physics.energy import (
+    REGULARIZATIONS, Hyperelastic, ThirdMedium, huhu_lulu, rotation_angle, tan_rotation_angle)
 
 
 def random_state(seed: int) -> tuple[np.ndarray, np.ndarray]:

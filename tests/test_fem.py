@@ -1,4 +1,4 @@
-"""P2 FEM reference (dolfinx_sfvem.fem): consistency, protocol, convergence (docs/method.md §7).
+"""P2 FEM reference (dolfinx_sfvem.discretizations.fem): consistency, protocol, convergence (docs/method.md §7).
 
 - The tangent is the derivative of the residual and the residual the derivative of the
   reported energy (central differences), for the solid and every regularization of
@@ -23,11 +23,11 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.energy import REGULARIZATIONS
-from dolfinx_sfvem.fem import LagrangeDiscretization
-from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
-from dolfinx_sfvem.node_keys import sfvem_unknowns
-from dolfinx_sfvem.remesh import p2_unknowns, triangulate
+from dolfinx_sfvem.physics.energy import REGULARIZATIONS
+from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
+from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels, evaluate
+from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
+from dolfinx_sfvem.mesh.remesh import p2_unknowns, triangulate
 
 STEP = 1e-6
 RTOL = 1e-6

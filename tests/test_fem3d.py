@@ -5,8 +5,8 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.cell_mesh import CellMesh
-from dolfinx_sfvem.fem import LagrangeDiscretization
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
 
 K, MU = 5 / 3, 5 / 14
 H = np.array([[0.02, -0.01, 0.03], [0.015, -0.02, 0.0], [0.01, 0.02, 0.025]])

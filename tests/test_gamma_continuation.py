@@ -1,4 +1,4 @@
-"""Continuation in the medium's gamma along the path (dolfinx_sfvem/gamma_continuation.py).
+"""Continuation in the medium's gamma along the path (dolfinx_sfvem/path_following/gamma_continuation.py).
 
 Two blocks across a medium layer (conftest.py ``two_blocks``), the top pressed down by 0.1 (the
 layer squeezed to half its height) at gamma = 1e-6. With ``gamma_start=1e-4`` every step is
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.gamma_continuation import GammaContinuation
-from dolfinx_sfvem.run_summary import read_summary
+from dolfinx_sfvem.path_following.gamma_continuation import GammaContinuation
+from dolfinx_sfvem.output.run_summary import read_summary
 
 GAMMA, START = 1e-6, 1e-4
 

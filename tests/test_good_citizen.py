@@ -25,8 +25,10 @@ import types
 
 import dolfinx_sfvem as sf  # first: with the dolfinx-solver wheel it loads MPI before the bindings
 import dolfinx_sfvem.problem
-from dolfinx_sfvem import exact, interrupt, meshes
+from dolfinx_sfvem import exact, meshes
+from dolfinx_sfvem.path_following import interrupt
 from dolfinx_sfvem.mpi_launcher import job_environment
+from dolfinx_sfvem.output.run_summary import read_summary
 
 import dolfinx
 import dolfinx.fem
@@ -183,7 +185,7 @@ def test_keyboard_interrupt_keeps_the_converged_steps_and_resumes(tmp_path):
     problem = strip(verbose=False)
     with pytest.raises(KeyboardInterrupt):
         problem.solve(10, out=tmp_path, observers={"w": interrupting}, handle_signals=False)
-    summary = sf.run_summary.read_summary(tmp_path)
+    summary = read_summary(tmp_path)
     assert "KeyboardInterrupt" in summary.message and not summary.converged
     kept = summary.converged_steps
     assert kept and problem.load == pytest.approx(kept[-1].load) and problem.load <= 0.3 + 1e-12

@@ -1,19 +1,19 @@
-"""The finite-strain SFVEM element on polyhedra (dolfinx_sfvem.hyperelastic3d; docs/method.md §8).
+"""The finite-strain SFVEM element on polyhedra (dolfinx_sfvem.discretizations.hyperelastic3d; docs/method.md §8).
 
 References from outside the code under test: central finite differences of the element energy and
 residual; the exact nodal forces of a constant first Piola stress P(F0) (on a face,
 int_f v P N = |f| P N mean_f(v): only the face-mean DOFs carry it), with P(F0) by finite
 differences of Psi written by hand (conftest.py's ``by_hand``); the linear-elastic stiffness of
-dolfinx_sfvem.elasticity (test_elasticity3d checks it); a rigid rotation of the deformed state.
+dolfinx_sfvem.discretizations.elasticity (test_elasticity3d checks it); a rigid rotation of the deformed state.
 """
 import numpy as np
 import pytest
 
 from dolfinx_sfvem import Hyperelastic, ThirdMedium
-from dolfinx_sfvem.elasticity import linear_elastic_stiffness_3d
-from dolfinx_sfvem.hyperelastic3d import hyperelastic_polyhedron
-from dolfinx_sfvem.polyhedron import polyhedron_geometry
-from dolfinx_sfvem.projection3d import interpolation_dofs
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness_3d
+from dolfinx_sfvem.discretizations.hyperelastic3d import hyperelastic_polyhedron
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_geometry
+from dolfinx_sfvem.discretizations.projection3d import interpolation_dofs
 
 K_BULK, MU = 5.0, 1.5
 SOLID = Hyperelastic(K=K_BULK, mu=MU)

@@ -1,11 +1,11 @@
-"""Linear solver presets and the rigid-body near-nullspace (dolfinx_sfvem/linear_solvers.py)."""
+"""Linear solver presets and the rigid-body near-nullspace (dolfinx_sfvem/path_following/linear_solvers.py)."""
 import numpy as np
 import pytest
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.linear_solvers import linear_solver_options, rigid_body_modes
-from dolfinx_sfvem.snes import SNESNewton
+from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options, rigid_body_modes
+from dolfinx_sfvem.path_following.snes import SNESNewton
 
 SOLID = sf.Hyperelastic(K=5 / 3, mu=5 / 14)
 

@@ -26,8 +26,8 @@ import dolfinx_sfvem as sf
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx_sfvem.snes import NewtonResult, SolveFailed
-from dolfinx_sfvem.stepping import LoadStepping
+from dolfinx_sfvem.path_following.snes import NewtonResult, SolveFailed
+from dolfinx_sfvem.path_following.stepping import LoadStepping
 
 
 def state() -> PETSc.Vec:

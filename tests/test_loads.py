@@ -1,4 +1,4 @@
-"""Loads ramped by the load factor (dolfinx_sfvem/loads.py, docs/guide/loads.md): traction, pressure,
+"""Loads ramped by the load factor (dolfinx_sfvem/physics/loads.py, docs/guide/loads.md): traction, pressure,
 point force, cavity pressure, body force, for the SFVEM and the FEM reference.
 
 - A dead traction and a follower or dead pressure on the end of a block give the homogeneous
@@ -21,7 +21,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.compiled_energy import compile_kernels, evaluate
+from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels, evaluate
 
 COMM = MPI.COMM_WORLD
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM

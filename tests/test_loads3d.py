@@ -7,7 +7,7 @@ import scipy.optimize
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
 
 K, MU = 5 / 3, 5 / 14
 LENGTHS = np.array([2.0, 1.0, 1.0])

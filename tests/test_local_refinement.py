@@ -10,8 +10,8 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.projection import build_projections
-from dolfinx_sfvem.state_transfer import transfer_state
+from dolfinx_sfvem.discretizations.projection import build_projections
+from dolfinx_sfvem.discretizations.state_transfer import transfer_state
 
 SOLID, MEDIUM = sf.meshes.SOLID, sf.meshes.MEDIUM
 K, MU = 5 / 3, 5 / 14

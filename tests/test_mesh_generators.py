@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.meshes import MEDIUM, SOLID
 
 

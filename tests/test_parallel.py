@@ -17,7 +17,8 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes, snes as solver
+from dolfinx_sfvem import meshes
+from dolfinx_sfvem.path_following import snes as solver
 
 pytestmark = pytest.mark.mpi
 

@@ -1,13 +1,13 @@
-"""The 3D pictures (dolfinx_sfvem/pictures3d.py): two blocks across a medium layer, the upper one
+"""The 3D pictures (dolfinx_sfvem/output/pictures3d.py): two blocks across a medium layer, the upper one
 pressed down and bulged, rendered offscreen; the PNGs exist, have the window's size, show something
 and the pressure picture is in colour."""
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from dolfinx_sfvem.pictures3d import WINDOW_SIZE, offscreen_unavailable, write_pictures_3d
-from dolfinx_sfvem.polygon_mesh import edge_key, segment_owner
-from dolfinx_sfvem.solid_surface import SolidSurface
+from dolfinx_sfvem.output.pictures3d import WINDOW_SIZE, offscreen_unavailable, write_pictures_3d
+from dolfinx_sfvem.mesh.polygon_mesh import edge_key, segment_owner
+from dolfinx_sfvem.physics.solid_surface import SolidSurface
 
 plt = pytest.importorskip("matplotlib.pyplot")
 REASON = offscreen_unavailable()
@@ -55,7 +55,7 @@ def test_pressure_view_on_the_surface_of_the_peak(box_grid, cell):
     """Both faces against the medium carry a pressure (as two bodies pressed together do), the upper
     one's larger: the pressure picture looks at the upper block's face, along its outward normal -z,
     at its centre (the two faces' normals together would cancel)."""
-    from dolfinx_sfvem.pictures3d import _contact_view
+    from dolfinx_sfvem.output.pictures3d import _contact_view
     mesh, u = two_blocks(box_grid, cell)
     n = mesh.points.shape[0]
     surface = SolidSurface(mesh, (1, 3), lambda a, b: n + edge_key(a, b, n))
@@ -93,9 +93,9 @@ def test_outlines_of_polyhedra_on_the_fan():
     medium's cells the sides of the medium polyhedra's faces, none ends at a face or cell centre;
     the cut of the solids by a plane y = c across the octree's boxes is their rectangles' sides, of
     length (Σ perimeters + the perimeter of the two blocks' sections) / 2."""
-    from dolfinx_sfvem.cell_mesh import CellMesh, CellOutlines
-    from dolfinx_sfvem.pictures3d import _cut_outlines, _grid, cells_outlines, surface_outlines
-    from dolfinx_sfvem.polyhedral_space import fan_mesh
+    from dolfinx_sfvem.mesh.cell_mesh import CellMesh, CellOutlines
+    from dolfinx_sfvem.output.pictures3d import _cut_outlines, _grid, cells_outlines, surface_outlines
+    from dolfinx_sfvem.discretizations.polyhedral_space import fan_mesh
     polyhedra = octree_sandwich()
     fan = fan_mesh(polyhedra)
     mesh = CellMesh(fan.nodes, fan.tetrahedra, polyhedra.tags[fan.tetrahedron_cell], "tetrahedron")
@@ -134,7 +134,7 @@ def test_pictures_of_an_sfvem_run(tmp_path, monkeypatch):
     tetrahedron's polyhedron (its centroid inside the polyhedron's box); the deformed view draws the
     sides of the faces on the solids' boundary; the PNGs are not blank."""
     import dolfinx_sfvem as sf
-    from dolfinx_sfvem import pictures3d
+    from dolfinx_sfvem.output import pictures3d
     calls, drawn = [], []
     write, outlines_on = pictures3d.write_pictures_3d, pictures3d.surface_outlines
     monkeypatch.setattr(pictures3d, "write_pictures_3d", lambda *a, **k: calls.append(k) or write(*a, **k))

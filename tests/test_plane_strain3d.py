@@ -17,7 +17,7 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
 
 SOLID, MEDIUM = sf.meshes.SOLID, sf.meshes.MEDIUM
 DEPTH = 0.3

@@ -13,8 +13,8 @@ from mpi4py import MPI
 import dolfinx.fem
 import ufl
 from dolfinx_sfvem import _compat
-from dolfinx_sfvem.polygon_mesh import PolygonMesh
-from dolfinx_sfvem.polygon import RTOL, sub_triangulate
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon import RTOL, sub_triangulate
 
 
 # --------------------------------------------------------------------------- rejections

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from matplotlib.path import Path
 
-from dolfinx_sfvem.polygon_mesh import PolygonMesh
-from dolfinx_sfvem.polygon import sub_triangulate
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon import sub_triangulate
 
 N_CASES = 200
 

@@ -8,12 +8,13 @@ from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import _compat
-from dolfinx_sfvem.elasticity import linear_elastic_stiffness_3d
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness_3d
 from dolfinx_sfvem.meshes import extrude_polygons, octree_box, voronoi_box
-from dolfinx_sfvem.polyhedral_space import CELL, FACE, MIDPOINT, VERTEX, PolyhedralSpace, fan_mesh, n_unknowns
-from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.projection3d import build_projections_3d
-from dolfinx_sfvem.polyhedron import polyhedron_edges, polyhedron_geometry, polyhedron_quadrature, face_quadrature
+from dolfinx_sfvem.discretizations.polyhedral_space import (
+    CELL, FACE, MIDPOINT, VERTEX, PolyhedralSpace, fan_mesh, n_unknowns)
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.discretizations.projection3d import build_projections_3d
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges, polyhedron_geometry, polyhedron_quadrature, face_quadrature
 
 WORLD = MPI.COMM_WORLD
 MESHES = ("grid", "octree", "prisms", "voronoi")

@@ -1,4 +1,4 @@
-"""Polyhedron geometry and quadrature (dolfinx_sfvem.polyhedron; docs/method.md §8).
+"""Polyhedron geometry and quadrature (dolfinx_sfvem.mesh.polyhedron; docs/method.md §8).
 
 References from outside the code under test: closed-form monomial integrals over the unit cube
 and a tetrahedron, scipy's convex hull volumes, the divergence-theorem integrals against the
@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from dolfinx_sfvem.monomials3d import (evaluate_monomials3, exponents3, monomial_index3, monomial_matrix3,
-                                       n_monomials3)
-from dolfinx_sfvem.polyhedron import (energy_quadrature, face_quadrature, polyhedron_edges, polyhedron_geometry,
-                                      polyhedron_monomial_integrals, polyhedron_quadrature, validate_polyhedron)
+from dolfinx_sfvem.discretizations.monomials3d import (
+    evaluate_monomials3, exponents3, monomial_index3, monomial_matrix3, n_monomials3)
+from dolfinx_sfvem.mesh.polyhedron import (
+    energy_quadrature, face_quadrature, polyhedron_edges, polyhedron_geometry, polyhedron_monomial_integrals,
+    polyhedron_quadrature, validate_polyhedron)
 
 
 def test_monomials3_order_and_derivatives():

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from dolfinx_sfvem.meshing.hexahedra import box_grid
-from dolfinx_sfvem.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 
 #: the unit cube's corners (tensor-product order) and its faces, outward
 CUBE = np.array([[i, j, k] for k in (0, 1) for j in (0, 1) for i in (0, 1)], dtype=float)
@@ -80,7 +80,7 @@ def test_from_dolfinx_create_box(cell_type):
     import dolfinx.mesh
     from mpi4py import MPI
     from dolfinx_sfvem import _compat
-    from dolfinx_sfvem.cell_mesh import CellMesh
+    from dolfinx_sfvem.mesh.cell_mesh import CellMesh
     box = dolfinx.mesh.create_box(MPI.COMM_WORLD, [[0.0, 0.0, 0.0], [2.0, 1.0, 1.0]], [2, 2, 1],
                                   getattr(dolfinx.mesh.CellType, cell_type))
     n = _compat.num_owned_cells(box) + box.topology.index_map(3).num_ghosts

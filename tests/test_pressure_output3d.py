@@ -19,8 +19,8 @@ import scipy.optimize
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.cell_mesh import CellMesh
-from dolfinx_sfvem.run_output import PRESSURE_FIELD, PressureField
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.output.run_output import PRESSURE_FIELD, PressureField
 
 K, MU, GAMMA = 5 / 3, 5 / 14, 0.05
 #: the layers: lower block [0, 0.5], medium [0.5, 0.6], upper block [0.6, 1.1] (z)
@@ -209,7 +209,7 @@ def test_output_on_two_ranks_equals_one(box_grid, tmp_path):
 def test_pressure_picture_of_a_run(box_grid, tmp_path):
     """The pictures of the last state and of a load of ``pressure_at``: final-pressure.png and
     contact_pressure_0.5-pressure.png show the contact pressure (not blank, in colour)."""
-    pictures3d = pytest.importorskip("dolfinx_sfvem.pictures3d")
+    pictures3d = pytest.importorskip("dolfinx_sfvem.output.pictures3d")
     reason = pictures3d.offscreen_unavailable()
     if reason is not None:
         pytest.skip(f"no offscreen rendering: {reason}")

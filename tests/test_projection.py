@@ -9,9 +9,10 @@ and test_local_refinement use them too.
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.monomials import exponents, gauss_legendre, n_monomials, polygon_monomial_integrals
-from dolfinx_sfvem.projection import (RANK_TOL, build_projections, cholesky, null_space_dimensions,
-                                      orthonormal_moments, pi_nabla_2, polygon_geometry, projection_system)
+from dolfinx_sfvem.discretizations.monomials import exponents, gauss_legendre, n_monomials, polygon_monomial_integrals
+from dolfinx_sfvem.discretizations.projection import (
+    RANK_TOL, build_projections, cholesky, null_space_dimensions, orthonormal_moments, pi_nabla_2, polygon_geometry,
+    projection_system)
 
 
 # --------------------------------------------------------------------------- helpers

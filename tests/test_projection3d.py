@@ -1,4 +1,4 @@
-"""Pi^nabla_2 and Pi^0_l nabla on polyhedra (dolfinx_sfvem.projection3d; docs/method.md §8).
+"""Pi^nabla_2 and Pi^0_l nabla on polyhedra (dolfinx_sfvem.discretizations.projection3d; docs/method.md §8).
 
 References from outside the code under test: quadratic fields and their gradients evaluated
 directly, the 2D Pi^nabla_2 (Simpson on the edges) against the face projection built from the
@@ -8,10 +8,10 @@ rank under rigid motions and scaling. The test polyhedra are conftest.py's ``pol
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.monomials3d import exponents3
-from dolfinx_sfvem.projection import RANK_TOL, null_space_dimensions, pi_nabla_2, polygon_geometry
-from dolfinx_sfvem.projection3d import (build_projections_3d, face_h1_projection, interpolation_dofs,
-                                        polyhedron_projections)
+from dolfinx_sfvem.discretizations.monomials3d import exponents3
+from dolfinx_sfvem.discretizations.projection import RANK_TOL, null_space_dimensions, pi_nabla_2, polygon_geometry
+from dolfinx_sfvem.discretizations.projection3d import (
+    build_projections_3d, face_h1_projection, interpolation_dofs, polyhedron_projections)
 
 
 class Quadratic3D:

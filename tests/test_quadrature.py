@@ -9,8 +9,9 @@ import pytest
 from mpi4py import MPI
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes, quadrature
-from dolfinx_sfvem.polygon import ear_clipping, point_location
+from dolfinx_sfvem import meshes
+from dolfinx_sfvem.discretizations import quadrature
+from dolfinx_sfvem.mesh.polygon import ear_clipping, point_location
 
 COMM = MPI.COMM_SELF
 

@@ -10,7 +10,7 @@ import pytest
 import refinement
 import results_runner
 
-from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem.output.run_summary import RunSummary
 
 
 def with_gaps(content: dict, gaps, overlap: float = 0.0) -> dict:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.run_summary import RunSummary
+from dolfinx_sfvem.output.run_summary import RunSummary
 from dolfinx_sfvem.mpi_launcher import job_environment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""The typed run summary (dolfinx_sfvem/run_summary.py) against what ContactProblem.solve writes."""
+"""The typed run summary (dolfinx_sfvem/output/run_summary.py) against what ContactProblem.solve writes."""
 from __future__ import annotations
 
 import dataclasses
@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from dolfinx_sfvem.run_summary import RUNNING, STOPPED_BY_SIGNAL, RunSummary, Step, read_summary
+from dolfinx_sfvem.output.run_summary import RUNNING, STOPPED_BY_SIGNAL, RunSummary, Step, read_summary
 
 
 def test_read_summary_reads_what_solve_writes(tmp_path, block):

@@ -1,4 +1,4 @@
-"""The 3D contact checks (dolfinx_sfvem/solid_surface.py) on configurations whose answer is exact:
+"""The 3D contact checks (dolfinx_sfvem/physics/solid_surface.py) on configurations whose answer is exact:
 two cubes across a gap and pushed into each other, a C whose arms are brought together, a curved
 quadratic face, two ridges crossing between their nodes; and the size it handles."""
 import math
@@ -7,9 +7,9 @@ import time
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.contact import SolidBoundary, solid_boundary
-from dolfinx_sfvem.polygon_mesh import PolygonMesh, edge_key
-from dolfinx_sfvem.solid_surface import SolidSurface
+from dolfinx_sfvem.physics.contact import SolidBoundary, solid_boundary
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
+from dolfinx_sfvem.physics.solid_surface import SolidSurface
 
 CELLS = ["hexahedron", "tetrahedron"]
 
@@ -228,8 +228,8 @@ def test_gap_of_state_gathers_the_ranks_nodes(box_grid):
 def test_facing_clusters_equal_every_pair(box_grid, cell):
     """The cluster search for facing surfaces of the own body (pruned by bounds) gives the distance of
     every node that the loop over all its node-triangle pairs gives, on a C bent out of shape."""
-    from dolfinx_sfvem.contact import FACING_COSINE
-    from dolfinx_sfvem.solid_surface import _facing_nearest
+    from dolfinx_sfvem.physics.contact import FACING_COSINE
+    from dolfinx_sfvem.physics.solid_surface import _facing_nearest
     mesh = box_grid(np.linspace(0, 1, 11), np.linspace(0, 0.4, 5), np.linspace(0, 0.6, 13),
                     lambda c: 2 if c[0] > 0.1 and 0.1 < c[2] < 0.5 else 1, cell)
     s = surface(mesh)

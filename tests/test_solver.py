@@ -21,8 +21,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem import meshes, snes as solver
-from dolfinx_sfvem.discretization import AssemblyInfo
+from dolfinx_sfvem import meshes
+from dolfinx_sfvem.path_following import snes as solver
+from dolfinx_sfvem.discretizations.discretization import AssemblyInfo
 
 COMM = MPI.COMM_SELF
 SOLID, MEDIUM = meshes.SOLID, meshes.MEDIUM

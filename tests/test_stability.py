@@ -1,4 +1,4 @@
-"""Unstable converged states are reported, never taken silently as the answer (dolfinx_sfvem/stability.py).
+"""Unstable converged states are reported, never taken silently as the answer (dolfinx_sfvem/path_following/stability.py).
 
 A clamped-clamped strut (plane strain, L = 1, thickness t = 0.04, a symmetric quad mesh)
 compressed by a prescribed end shortening: Newton follows the straight (trivial) branch, which is
@@ -20,8 +20,8 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem import meshes
-from dolfinx_sfvem.run_summary import read_summary
-from dolfinx_sfvem.stability import is_stable
+from dolfinx_sfvem.output.run_summary import read_summary
+from dolfinx_sfvem.path_following.stability import is_stable
 
 import results_report
 

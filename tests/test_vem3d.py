@@ -1,4 +1,4 @@
-"""The SFVEM discretization on polyhedra (dolfinx_sfvem/vem3d.py): its tangent is the derivative of
+"""The SFVEM discretization on polyhedra (dolfinx_sfvem/discretizations/vem3d.py): its tangent is the derivative of
 its residual (energies with and without the second gradient, the cavity's swept volume, a follower
 pressure), face loads land where the element's own flux does, and the output host reproduces
 quadratics and is continuous across faces."""
@@ -8,10 +8,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx_sfvem as sf
-from dolfinx_sfvem.energy import VolumeWork
-from dolfinx_sfvem.face_loads import BoundFacePressure, BoundFaceTraction, loaded_facets
-from dolfinx_sfvem.polyhedral_space import FACE
-from dolfinx_sfvem.vem3d import PolyhedralDiscretization
+from dolfinx_sfvem.physics.energy import VolumeWork
+from dolfinx_sfvem.physics.face_loads import BoundFacePressure, BoundFaceTraction, loaded_facets
+from dolfinx_sfvem.discretizations.polyhedral_space import FACE
+from dolfinx_sfvem.discretizations.vem3d import PolyhedralDiscretization
 
 K, MU = 5 / 3, 5 / 14
 

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from dolfinx_sfvem.elasticity import linear_elastic_stiffness_3d
+from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness_3d
 from dolfinx_sfvem.meshes import voronoi_box
 from dolfinx_sfvem.meshing.voronoi import MIN_EDGE
-from dolfinx_sfvem.polyhedron import polyhedron_edges
-from dolfinx_sfvem.projection3d import build_projections_3d
+from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges
+from dolfinx_sfvem.discretizations.projection3d import build_projections_3d
 
 
 def shortest_edges(mesh):

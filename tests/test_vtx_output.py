@@ -12,13 +12,13 @@ import xml.etree.ElementTree as ET
 
 import dolfinx_sfvem as sf  # first: with the dolfinx-solver wheel it loads MPI before the bindings
 from dolfinx_sfvem import _compat, meshes
-from dolfinx_sfvem.run_output import PRESSURE_FIELD
+from dolfinx_sfvem.output.run_output import PRESSURE_FIELD
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from dolfinx_sfvem.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
 
 #: the layers of the stack: lower block, medium, upper block (z)
 LAYERS = (0.0, 0.5, 0.6, 1.1)

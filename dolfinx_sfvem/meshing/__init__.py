@@ -1,4 +1,4 @@
-"""Tools that make polygon meshes, one job per module.
+"""Making meshes: the tools, one job per module, and the paper's geometries made with them.
 
 polygon_sets
     :class:`PolygonSet` (polygons not yet validated), CSR helpers, :func:`glue` (concatenation with
@@ -29,6 +29,10 @@ npz
 diagnostics
     T-junctions and a summary of a mesh.
 
-The paper's geometries made with these tools are in :mod:`dolfinx_sfvem.benchmarks` and
-:mod:`dolfinx_sfvem.benchmarks3d`; users reach both through the namespace :mod:`dolfinx_sfvem.meshes`.
+benchmarks
+    The paper's 2D geometries, meshed: C-box, box, punch, multi-object, thick cylinder, arch, PneuNet.
+benchmarks3d
+    The 3D geometries: C-box, Hertz sphere (tetrahedra or an octree block), thick sphere, PneuNet.
+
+Users reach all of them through the namespace :mod:`dolfinx_sfvem.meshes`.
 """

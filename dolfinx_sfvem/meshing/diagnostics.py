@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
 
 def t_junctions(mesh: PolygonMesh) -> np.ndarray:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ..polygon_mesh import edge_key
-from .polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
+from dolfinx_sfvem.mesh.polygon_mesh import edge_key
+from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
 
 
 def _checked_triangles(points: npt.ArrayLike, triangles: npt.ArrayLike,

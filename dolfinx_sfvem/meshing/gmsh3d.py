@@ -1,5 +1,5 @@
 """3D cell meshes from gmsh: the volume cells of a gmsh model (tetrahedra or hexahedra) as a
-:class:`~dolfinx_sfvem.cell_mesh.CellMesh`, from a ``.msh`` file, the caller's open model, or a
+:class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`, from a ``.msh`` file, the caller's open model, or a
 geometry builder meshed in a gmsh session of our own.
 
 Parallel use: gmsh meshes identically on every rank (one thread, the same input), as the 2D
@@ -14,9 +14,9 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..cell_mesh import CellMesh
-from .gmsh_io import entity_regions, gmsh_session, region_names
-from .hexahedra import right_handed
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.meshing.gmsh_io import entity_regions, gmsh_session, region_names
+from dolfinx_sfvem.meshing.hexahedra import right_handed
 
 #: gmsh geometry builder of a 3D model: ``build(gmsh)`` creates the geometry in a fresh gmsh model
 #: (synchronised), sets the mesh size (options or fields) and returns {region tag: volume tags}

@@ -11,11 +11,11 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ..polygon_mesh import PolygonMesh
-from .dual import dual_polygons
-from .gmsh_io import gmsh_session, model_cells, write_gmsh
-from .grids import n_segments
-from .polygon_sets import PolygonSet
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.meshing.dual import dual_polygons
+from dolfinx_sfvem.meshing.gmsh_io import gmsh_session, model_cells, write_gmsh
+from dolfinx_sfvem.meshing.grids import n_segments
+from dolfinx_sfvem.meshing.polygon_sets import PolygonSet
 
 
 #: gmsh geometry builder: ``build(gmsh, h)`` -> {region tag: surface tags}

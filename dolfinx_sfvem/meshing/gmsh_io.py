@@ -13,8 +13,8 @@ from collections.abc import Iterator, Mapping
 
 import numpy as np
 
-from ..polygon_mesh import PolygonMesh
-from .polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
 
 
 _sessions_opened = 0  # gmsh sessions opened by gmsh_session and not yet finalised

@@ -6,8 +6,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ..polygon_mesh import PolygonMesh
-from .polygon_sets import PolygonSet, compact_points, glue, length_tolerance
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, compact_points, glue, length_tolerance
 
 
 def n_segments(length: float, h: float) -> int:

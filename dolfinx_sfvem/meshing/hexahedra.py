@@ -11,8 +11,8 @@ from typing import Literal
 
 import numpy as np
 
-from ..cell_mesh import CellMesh
-from ..polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
 #: the cell types a structured grid can be made of
 GridCell = Literal["hexahedron", "tetrahedron"]

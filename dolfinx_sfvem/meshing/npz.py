@@ -5,8 +5,8 @@ import os
 
 import numpy as np
 
-from ..polygon_mesh import PolygonMesh
-from .polygon_sets import PolygonSet, split_csr
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, split_csr
 
 
 #: identifier stored in the ``.npz`` files written by :func:`write_polygons`

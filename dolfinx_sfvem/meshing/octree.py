@@ -22,7 +22,7 @@ from typing import Literal, Union
 import numpy as np
 import numpy.typing as npt
 
-from ..polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 
 Balance = Literal["faces", "edges", "vertices"]
 #: a marker of leaf centres (3, n) -> bool (n,), a boolean mask over the leaves, or leaf indices
@@ -242,7 +242,7 @@ class OctreeMesh:
     # ----------------------------------------------------------------------- polyhedra
     def polyhedra(self, tag_of: Callable[[np.ndarray], np.ndarray] | None = None,
                   region_names: Mapping[str, int] | None = None) -> PolyhedronMesh:
-        """The leaves as a conforming :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh`.
+        """The leaves as a conforming :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`.
 
         Cell ``c`` is leaf ``c``. Its faces are, on each of its six sides, its own square where the
         leaf across is as coarse or coarser (or the box's boundary), else the squares of the finer

@@ -14,7 +14,7 @@ octree square, and the squares' corners, the hanging ones included, are gmsh nod
   and every face matches the face across;
 - the tetrahedra become polyhedra of four triangles; points are merged by coordinates.
 
-The result is validated by :class:`~dolfinx_sfvem.polyhedron_mesh.PolyhedronMesh` (closed,
+The result is validated by :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh` (closed,
 oriented, matching faces).
 """
 from __future__ import annotations
@@ -25,11 +25,11 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from ..polygon import RTOL
-from ..polygon_mesh import concatenated_ranges, next_entries, segment_owner
-from ..polyhedron_mesh import PolyhedronMesh
-from .gmsh3d import VolumeBuilder, gmsh_tetrahedra
-from .octree import OctreeMesh
+from dolfinx_sfvem.mesh.polygon import RTOL
+from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, next_entries, segment_owner
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.meshing.gmsh3d import VolumeBuilder, gmsh_tetrahedra
+from dolfinx_sfvem.meshing.octree import OctreeMesh
 
 #: outward faces of a positively oriented tetrahedron (local vertex triples)
 _TETRAHEDRON_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])

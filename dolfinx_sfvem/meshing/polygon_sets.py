@@ -11,7 +11,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.spatial
 
-from ..polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
 
 #: relative tolerance (times the bounding-box size) of all geometric comparisons here

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..polygon_mesh import PolygonMesh
-from ..polyhedron_mesh import PolyhedronMesh
-from .hexahedra import extruded_points
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
+from dolfinx_sfvem.meshing.hexahedra import extruded_points
 
 
 def extrude_polygons(mesh2d: PolygonMesh, depth: float, layers: int) -> PolyhedronMesh:

@@ -8,8 +8,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import Voronoi
 
-from ..polyhedron_mesh import PolyhedronMesh, plane_coordinates
-from .short_edges import collapse_short_edges
+from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh, plane_coordinates
+from dolfinx_sfvem.meshing.short_edges import collapse_short_edges
 
 #: default shortest edge kept, relative to the diameter of every cell holding it
 MIN_EDGE = 1e-2

@@ -26,7 +26,7 @@ import gmsh
 
 import dolfinx_sfvem as sf  # before petsc4py: it loads the MPI of the dolfinx-solver wheels first
 from dolfinx_sfvem import _compat, meshes
-from dolfinx_sfvem.remesh import matched_triangulation
+from dolfinx_sfvem.mesh.remesh import matched_triangulation
 from petsc4py import PETSc
 
 DATA = pathlib.Path(__file__).resolve().parent

@@ -1,0 +1,304 @@
+"""A conforming mesh of one DOLFINx cell type in 2D or 3D, identical on every rank.
+
+:class:`CellMesh` is the 3D counterpart of :class:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh`
+as the Lagrange FEM's :attr:`~dolfinx_sfvem.discretizations.fem.LagrangeDiscretization.output_mesh`: the
+points, the cells in DOLFINx's vertex order, a region tag per cell and the facets on the
+boundary of the mesh and between regions (the surfaces the contact checks, the pictures and
+the loads on faces use). Its cells are affine: simplices, or parallelograms/parallelepipeds
+(Q2's second derivatives are exact only on affine cells).
+
+Vertex order (DOLFINx's, :func:`basix.geometry`): a tetrahedron's reference vertices
+(0,0,0), (1,0,0), (0,1,0), (0,0,1); a hexahedron's in tensor-product order (0,0,0),
+(1,0,0), (0,1,0), (1,1,0), (0,0,1), ... A cell whose map from the reference cell has a
+negative Jacobian determinant (a left-handed tetrahedron, as gmsh may write) is reordered
+(its reference axes 0 and 1 swapped), so every cell of a :class:`CellMesh` has a positive
+volume.
+"""
+from __future__ import annotations
+
+import typing
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+import basix
+
+from dolfinx_sfvem import _compat
+
+#: cell type -> (topological dimension, number of vertices)
+CELL_TYPES = {"triangle": (2, 3), "quadrilateral": (2, 4), "tetrahedron": (3, 4), "hexahedron": (3, 8)}
+#: tensor-product cells: their vertices are p_0 + J ξ for the reference vertices ξ, checked
+_TENSOR = ("quadrilateral", "hexahedron")
+#: cell type -> the vertex permutation that swaps the reference axes 0 and 1 (mirrors the cell)
+_MIRROR = {"triangle": [0, 2, 1], "quadrilateral": [0, 2, 1, 3], "tetrahedron": [0, 2, 1, 3],
+           "hexahedron": [0, 2, 1, 3, 4, 6, 5, 7]}
+#: relative tolerance of the affinity and volume checks (of the cell's longest edge)
+TOLERANCE = 1e-9
+
+
+def reference_vertices(cell_type: str) -> np.ndarray:
+    """Reference coordinates (n_vertices, tdim) of the cell's vertices, DOLFINx's order."""
+    return np.asarray(basix.geometry(getattr(basix.CellType, cell_type)), dtype=np.float64)
+
+
+def reference_facets(cell_type: str) -> list[list[int]]:
+    """The local vertices of every facet of the cell (DOLFINx's facet numbering); the
+    vertices of a quadrilateral face in cyclic order (a, b, c, d) around it."""
+    facets = basix.topology(getattr(basix.CellType, cell_type))[CELL_TYPES[cell_type][0] - 1]
+    return [[f[0], f[1], f[3], f[2]] if len(f) == 4 else list(f) for f in facets]
+
+
+def reference_edges(cell_type: str) -> list[list[int]]:
+    """The local vertices of every edge of the cell (DOLFINx's edge numbering, which numbers
+    the degree-2 Lagrange dofs on edges)."""
+    return [list(e) for e in basix.topology(getattr(basix.CellType, cell_type))[1]]
+
+
+def facet_normals(points: np.ndarray, facets: np.ndarray) -> np.ndarray:
+    """Area-weighted normals (n, gdim) of facets (n, 2 | 3 | 4) given by their vertices in
+    cyclic order: an edge (a, b) in 2D has the normal (b - a) turned clockwise; a triangle
+    (a, b, c) ½ (b - a) x (c - a); a planar quadrilateral (a, b, c, d) ½ (c - a) x (d - b)."""
+    x = points[facets]
+    if facets.shape[1] == 2:
+        d = x[:, 1] - x[:, 0]
+        return np.stack([d[:, 1], -d[:, 0]], axis=1)
+    if facets.shape[1] == 3:
+        return 0.5 * np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    return 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+
+
+class CellOutlines(typing.NamedTuple):
+    """The cells that the cells of a :class:`CellMesh` subdivide, for drawing: the SFVEM's polyhedra
+    over their fan tetrahedra (:attr:`~dolfinx_sfvem.discretizations.discretization.Discretization.cell_outlines`).
+
+    Attributes
+    ----------
+    edges : (n_edges, 2) int64
+        The edges of the cells (the sides of their faces), as pairs of the mesh's points.
+    cell : (n_cells of the mesh,) int64
+        The cell that each cell of the mesh lies in.
+    """
+
+    edges: npt.NDArray[np.int64]
+    cell: npt.NDArray[np.int64]
+
+
+class CellMesh:
+    """A conforming mesh of one cell type with a region tag per cell (module docstring).
+
+    Parameters
+    ----------
+    points : (n_points, gdim) float
+        Vertex coordinates, gdim = 2 or 3 (3 columns for a 2D cell type with z = 0 are cut).
+    cells : (n_cells, k) int
+        Vertex indices of every cell in DOLFINx's order of ``cell_type``.
+    tags : (n_cells,) int
+        Region tag of every cell.
+    cell_type
+        ``"tetrahedron"``, ``"hexahedron"``, ``"triangle"`` or ``"quadrilateral"``.
+    region_names
+        Name -> tag of named regions (every tag must be one of ``tags``).
+
+    Raises
+    ------
+    ValueError
+        Naming the cell: a cell of (nearly) zero volume, a quadrilateral/hexahedron that is not
+        a parallelogram/parallelepiped, a facet shared by more than two cells, bad shapes or
+        indices.
+
+    Attributes
+    ----------
+    points, cells, tags, region_names, cell_type
+        As given (cells with a negative orientation reordered, module docstring).
+    gdim, tdim : int
+    """
+
+    def __init__(self, points: npt.ArrayLike, cells: npt.ArrayLike, tags: npt.ArrayLike, cell_type: str,
+                 region_names: typing.Mapping[str, int] | None = None):
+        if cell_type not in CELL_TYPES:
+            raise ValueError(f"cell type {cell_type!r}: use one of {', '.join(CELL_TYPES)}")
+        self.cell_type = cell_type
+        self.tdim, n_vertices = CELL_TYPES[cell_type]
+        points = np.array(points, dtype=np.float64, ndmin=2)
+        if points.shape[1] == 3 and self.tdim == 2 and np.all(points[:, 2] == 0.0):
+            points = points[:, :2].copy()
+        if points.shape[1] != self.tdim:
+            raise ValueError(f"{cell_type} mesh: points must have {self.tdim} columns, got shape {points.shape}")
+        self.gdim = self.tdim
+        cells = np.array(cells, dtype=np.int64, ndmin=2)
+        if cells.shape[1] != n_vertices:
+            raise ValueError(f"{cell_type} mesh: cells must have {n_vertices} vertices each, got shape {cells.shape}")
+        if cells.size and (cells.min() < 0 or cells.max() >= points.shape[0]):
+            bad = int(np.flatnonzero((cells < 0).any(axis=1) | (cells >= points.shape[0]).any(axis=1))[0])
+            raise ValueError(f"{cell_type} {bad} has vertex indices {cells[bad].tolist()} outside [0, {points.shape[0]})")
+        tags = np.asarray(tags, dtype=np.int64).reshape(-1)
+        if tags.shape != (cells.shape[0],):
+            raise ValueError(f"one tag per cell expected: {tags.size} tags for {cells.shape[0]} cells")
+        self.points = points
+        self.cells = self._oriented(cells)
+        self.tags = tags
+        self.region_names = {str(name): int(tag) for name, tag in (region_names or {}).items()}
+        unknown = {name: tag for name, tag in self.region_names.items() if tag not in set(tags.tolist())}
+        if unknown:
+            raise ValueError(f"region names {unknown} name tags that no cell has")
+        self._facets = self._all_facets()
+
+    # ------------------------------------------------------------------ validation
+    def _oriented(self, cells: np.ndarray) -> np.ndarray:
+        """The cells with a positive Jacobian determinant of their affine map (mirrored where it
+        is negative); ValueError naming a cell that is degenerate or not affine."""
+        ref = reference_vertices(self.cell_type)
+        x = self.points[cells]                                      # (n, k, d)
+        axes = [1, 2, 4][:self.tdim] if self.cell_type == "hexahedron" else list(range(1, self.tdim + 1))
+        J = np.stack([x[:, a] - x[:, 0] for a in axes], axis=2)     # (n, d, d): columns along the reference axes
+        size = np.linalg.norm(x[:, :, None] - x[:, None], axis=3).max(axis=(1, 2)) if len(x) else np.zeros(0)
+        if self.cell_type in _TENSOR:
+            off = np.linalg.norm(x[:, 0, None] + np.einsum("nij,kj->nki", J, ref) - x, axis=2)   # (n, k)
+            bad = np.flatnonzero(off.max(axis=1) > TOLERANCE * size)
+            if bad.size:
+                c = int(bad[0])
+                shape = "parallelogram" if self.tdim == 2 else "parallelepiped"
+                raise ValueError(f"{self.cell_type} {c} (vertices {cells[c].tolist()}) is not a {shape}: its vertex "
+                                 f"{int(np.argmax(off[c]))} lies {off[c].max():.3g} off the affine map of vertices "
+                                 f"{[0] + axes}; Q2 second derivatives need affine cells")
+        det = np.linalg.det(J) if len(x) else np.zeros(0)
+        flat = np.flatnonzero(np.abs(det) <= TOLERANCE * size ** self.tdim)
+        if flat.size:
+            c = int(flat[0])
+            raise ValueError(f"{self.cell_type} {c} (vertices {cells[c].tolist()}, points "
+                             f"{np.round(self.points[cells[c]], 12).tolist()}) has zero volume")
+        cells = cells.copy()
+        cells[det < 0] = cells[det < 0][:, _MIRROR[self.cell_type]]
+        return cells
+
+    def _all_facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every facet once: (vertices (m, 2|3|4) oriented out of ``cell``, cell (m,), neighbour (m,)
+        or -1); ValueError for a facet of more than two cells."""
+        local = reference_facets(self.cell_type)
+        n_cells = self.cells.shape[0]
+        facets = np.concatenate([self.cells[:, f] for f in local]) if n_cells else \
+            np.empty((0, len(local[0])), np.int64)
+        cell = np.tile(np.arange(n_cells), len(local))
+        # out of the cell: the normal points away from the cell's centre
+        centre = self.points[self.cells].mean(axis=1) if n_cells else np.zeros((0, self.gdim))
+        inward = np.einsum("ij,ij->i", facet_normals(self.points, facets),
+                           self.points[facets].mean(axis=1) - centre[cell]) < 0
+        facets[inward] = facets[inward][:, ::-1]
+        _, first, inverse, counts = np.unique(np.sort(facets, axis=1), axis=0, return_index=True,
+                                              return_inverse=True, return_counts=True)
+        inverse = inverse.reshape(-1)
+        if counts.size and counts.max() > 2:
+            f = int(np.argmax(counts))
+            cells = np.sort(cell[inverse == f]).tolist()
+            raise ValueError(f"{self.cell_type} mesh is not conforming: the facet with vertices "
+                             f"{np.sort(facets[first[f]]).tolist()} belongs to the cells {cells}")
+        neighbour = np.full(first.size, -1, dtype=np.int64)
+        other = np.flatnonzero(np.arange(inverse.size) != first[inverse])   # the second cell of a shared facet
+        neighbour[inverse[other]] = cell[other]
+        return facets[first], cell[first], neighbour
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.cells.shape[0])
+
+    @property
+    def volumes(self) -> np.ndarray:
+        """Volume (area in 2D) of every cell (n_cells,)."""
+        x = self.points[self.cells]
+        axes = [1, 2, 4][:self.tdim] if self.cell_type == "hexahedron" else list(range(1, self.tdim + 1))
+        det = np.linalg.det(np.stack([x[:, a] - x[:, 0] for a in axes], axis=2))
+        simplex = self.cell_type in ("triangle", "tetrahedron")
+        return det / (6.0 if self.tdim == 3 else 2.0) if simplex else det
+
+    def boundary_facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The facets on the boundary of the mesh or between two different region tags.
+
+        Returns
+        -------
+        facets : (nf, 2 | 3 | 4) int64
+            Vertex indices, ordered so that the normal (:func:`facet_normals`) points out of
+            ``cell``; quadrilateral faces in cyclic order.
+        cell : (nf,) int64
+            The cell the facet is oriented out of: its only cell on the outer boundary; on an
+            interface the cell with the smaller region tag (e.g. the solid, ``SOLID = 1``,
+            facing the medium, ``MEDIUM = 2``; :meth:`region_surface` gives either side).
+        neighbour : (nf,) int64
+            The cell on the other side, -1 on the outer boundary.
+        """
+        facets, cell, neighbour = self._facets
+        other = np.where(neighbour >= 0, neighbour, cell)
+        chosen = (neighbour < 0) | (self.tags[cell] != self.tags[other])
+        facets, cell, neighbour = facets[chosen], cell[chosen], neighbour[chosen]
+        flip = (neighbour >= 0) & (self.tags[np.maximum(neighbour, 0)] < self.tags[cell])
+        facets[flip] = facets[flip][:, ::-1]
+        cell[flip], neighbour[flip] = neighbour[flip], cell[flip]
+        return facets, cell, neighbour
+
+    def region_surface(self, tags: typing.Iterable[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The surface of the union of the regions ``tags``: (facets oriented out of it, the cell
+        inside, the cell outside or -1), as :meth:`boundary_facets`."""
+        inside = np.isin(self.tags, np.fromiter(tags, dtype=np.int64))
+        facets, cell, neighbour = (a.copy() for a in self._facets)
+        out_in = (neighbour >= 0) & ~inside[cell] & inside[np.maximum(neighbour, 0)]
+        facets[out_in] = facets[out_in][:, ::-1]
+        cell[out_in], neighbour[out_in] = neighbour[out_in], cell[out_in]
+        chosen = inside[cell] & ((neighbour < 0) | ~inside[np.maximum(neighbour, 0)])
+        return facets[chosen], cell[chosen], neighbour[chosen]
+
+    def edges(self) -> np.ndarray:
+        """Every edge once, (n_edges, 2) int64 point indices, the lower first."""
+        pairs = np.concatenate([self.cells[:, e] for e in reference_edges(self.cell_type)])
+        return np.unique(np.sort(pairs, axis=1), axis=0)
+
+    # ------------------------------------------------------------------ DOLFINx
+    @classmethod
+    def from_dolfinx(cls, mesh, cell_tags, region_names: typing.Mapping[str, int] | None = None) -> "CellMesh":
+        """The mesh of a (distributed) affine DOLFINx mesh and its cell tags, on every rank
+        (collective). Points are ordered by their input index, cells by their input index;
+        every cell must be tagged (ValueError naming an untagged one)."""
+        tag = np.full(_compat.num_owned_cells(mesh) + mesh.topology.index_map(mesh.topology.dim).num_ghosts,
+                      np.iinfo(np.int64).min, dtype=np.int64)
+        tag[cell_tags.indices] = cell_tags.values
+        points, cells, tags, _ = gather_cells(mesh, tag, mesh.comm)
+        if np.any(tags == np.iinfo(np.int64).min):
+            raise ValueError(f"cell {int(np.argmin(tags))} (input index) has no region tag")
+        return cls(points, cells, tags, mesh.topology.cell_type.name, region_names)
+
+
+def gather_cells(mesh, cell_tag: np.ndarray, comm: MPI.Comm
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The global mesh on every rank, from the owned cells of each rank (collective).
+
+    Parameters
+    ----------
+    cell_tag : (n_local_cells,)
+        A value per local cell (the region tags).
+
+    Returns
+    -------
+    points : (n_points, gdim)
+        The geometry nodes used by cells, ordered by input index.
+    cells : (n_cells, k) int64
+        Indices into ``points`` in DOLFINx's vertex order, ordered by input cell index.
+    tags : (n_cells,)
+        ``cell_tag`` of every cell.
+    point_of_node : (n_local_geometry_nodes,) int64
+        Index in ``points`` of every local geometry node.
+    """
+    gdim = mesh.geometry.dim
+    n_owned = _compat.num_owned_cells(mesh)
+    geometry = _compat.cell_geometry_nodes(mesh)
+    inp = _compat.input_node_index(mesh)
+    local = (_compat.original_cell_index(mesh)[:n_owned], inp[geometry[:n_owned]],
+             mesh.geometry.x[geometry[:n_owned], :gdim], cell_tag[:n_owned])
+    cell, nodes, x, tags = (np.concatenate(part) for part in zip(*comm.allgather(local)))
+    inputs, first, cells = np.unique(nodes.ravel(), return_index=True, return_inverse=True)
+    order = np.argsort(cell)
+    cells = cells.reshape(-1, geometry.shape[1])[order]
+    return x.reshape(-1, gdim)[first], cells.astype(np.int64), tags[order], np.searchsorted(inputs, inp)

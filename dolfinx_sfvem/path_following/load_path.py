@@ -1,0 +1,401 @@
+"""The load path driver: a control's attempts turned into records, output, continuation and adaptivity.
+
+:class:`LoadPath` runs a :class:`~dolfinx_sfvem.problem.ContactProblem` (the definition and
+the state) along a path with a control (:class:`~dolfinx_sfvem.path_following.stepping.LoadStepping` by
+default, :class:`~dolfinx_sfvem.path_following.arclength.ArcLength`), the way FElupe's ``Job`` evaluates the
+increments its ``Step`` yields::
+
+    for attempt in control.attempts(step_solver):     # Newton (or arc-length) per attempt
+        record it                                      # gap, reactions, loads, observers
+        if converged: progress line, write the step    # run_output.RunWriter
+        if adaptive: refine, re-balance, go on         # adaptivity.Adaptivity
+        if a stop was requested: break                 # interrupt.StopRequest
+
+The controls never see the problem: they talk to a :class:`StepSolver`, the equilibrium
+solvers of the current mesh (Newton at a fixed load factor, and the balance with its load
+vector for arc-length), which also applies the contact honesty rule: a converged state whose
+solids overlap is rejected like a failed solve. ``ContactProblem.solve`` is this driver.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import logging
+import pathlib
+import signal
+import time
+import typing
+from dataclasses import asdict
+
+import numpy as np
+from petsc4py import PETSc
+
+from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.path_following.adaptivity import Adaptivity
+from dolfinx_sfvem.physics.equilibrium import Equilibrium
+from dolfinx_sfvem.path_following.gamma_continuation import ContinuedStepSolver, GammaContinuation
+from dolfinx_sfvem.path_following.interrupt import StopRequest
+from dolfinx_sfvem.output.logs import say, warn
+from dolfinx_sfvem.physics.loads import VectorLoad
+from dolfinx_sfvem.output.run_output import RunWriter, progress_line, read_checkpoint
+from dolfinx_sfvem.output.run_summary import STOPPED_BY_SIGNAL, Observer, Result, StepRecord
+from dolfinx_sfvem.problem import ContactProblem
+from dolfinx_sfvem.path_following.snes import NewtonResult, SNESNewton, SolveFailed
+from dolfinx_sfvem.path_following.stability import final_stability, instability, is_stable
+from dolfinx_sfvem.path_following.step_solver import StepSolver
+from dolfinx_sfvem.path_following.stepping import Attempt, Control, LoadStepping
+
+log = logging.getLogger(__name__)
+
+#: steps of the residual relaxation of :meth:`LoadPath._rebalance` (cut back down to a quarter of one)
+RELAX_STEPS = 4
+
+
+def observe(problem: ContactProblem, observers: typing.Mapping[str, Observer]) -> dict[str, float]:
+    """The observers' values: ``name`` for a number, ``name.key`` for each entry of a mapping."""
+    values: dict[str, float] = {}
+    for name, f in observers.items():
+        value = f(problem)
+        if isinstance(value, typing.Mapping):
+            values.update({f"{name}.{key}": float(v) for key, v in value.items()})
+        else:
+            values[name] = float(value)
+    return values
+
+
+class LoadPath:
+    """A run of a problem along a load path (module docstring); the parameters are those of
+    :meth:`ContactProblem.solve <dolfinx_sfvem.problem.ContactProblem.solve>`."""
+
+    def __init__(self, problem: ContactProblem, control: Control, out: str | pathlib.Path | None = None, *,
+                 petsc_options: typing.Mapping[str, typing.Any] | None = None,
+                 observers: typing.Mapping[str, Observer] | None = None, raise_on_failure: bool = False,
+                 resume: bool = False, from_current_state: bool = False, until: float = 1.0,
+                 adapt: Adaptivity | None = None, pressure_at: typing.Iterable[float] = (),
+                 handle_signals: bool | None = None, gamma_start: float | None = None):
+        self.problem = problem
+        self.control = control
+        self.out = pathlib.Path(out) if out is not None else None
+        self.petsc_options = petsc_options
+        self.observers = dict(observers or {})
+        self.raise_on_failure = raise_on_failure
+        self.resume = resume
+        self.from_current_state = from_current_state
+        self.until = until
+        self.adapt = adapt
+        self.pressure_at = tuple(pressure_at)
+        self.handle_signals = handle_signals
+        self.continuation = None
+        if gamma_start is not None:
+            if control.traces_unstable_branches:
+                raise ValueError("gamma_start needs a prescribed load factor (LoadStepping): under arc-length "
+                                 "the load factor is an unknown")
+            self.continuation = GammaContinuation(problem.materials, gamma_start, until)
+            self.observers["gamma"] = lambda _: self.continuation.current()
+        self.earlier_wall_time = 0.0          # of the stopped run a resumed path continues
+        self.records: list[dict] = []
+
+    # ------------------------------------------------------------------ the run
+    def run(self) -> Result:
+        """Solve the path; returns its :class:`Result` (see :meth:`ContactProblem.solve`). A
+        continued gamma (``gamma_start``) is back at the asked values afterwards."""
+        try:
+            return self._run()
+        finally:
+            if self.continuation is not None:
+                self.continuation.restore()
+
+    def _run(self) -> Result:
+        p = self.problem
+        rebalance = self.from_current_state and p.solved and not self.resume
+        if self.adapt is not None:
+            self.adapt.level = None                 # levels count from the mesh this solve starts on
+        p.solved = True
+        self.t_start = time.perf_counter()
+        self.control.start(p.load if self.from_current_state else 0.0, self.until)
+        if self.resume:
+            if self.out is None:
+                raise ValueError("resume needs the output directory of the stopped run")
+            p.disc.set_constraints(p.constraints().dofs)
+            self.records = self._restore_checkpoint()
+        writer = RunWriter(p.comm, p.disc, p.x, self.out, self.control, self.summary, append=self.resume,
+                           pressure_at=self.pressure_at) if self.out is not None else None
+        message = ""
+        refined, transferred = 0, False        # polygons split after the last converged step; state transferred
+        undo = None                            # mesh and state before the last adaptive refinement
+        adapt = self.adapt
+        with StopRequest(self.handle_signals) as stop:
+            try:
+                while True:
+                    solver = self._step_solver()
+                    converged_x = p.x.copy()             # the state to go back to on KeyboardInterrupt
+                    if not transferred:
+                        self._check_initial_state()      # a transferred state is checked by re-balancing
+                    path = [self._rebalance(solver)] if rebalance else []
+                    for attempt in itertools.chain(path, self.control.attempts(solver)):
+                        n_converged = sum(r["converged"] for r in self.records) + attempt.converged
+                        rec = self._record(attempt, n_converged, solver)
+                        self.records.append(asdict(rec))
+                        if attempt.converged:
+                            p.load = attempt.load
+                            p.x.copy(converged_x)
+                            self._progress(rec)
+                            self._warn_instability(rec)
+                            if writer is not None:
+                                writer.step(self.records, self._wall(), solver.contact[1], p.boundary)
+                            if self.control.passed(rec):
+                                break
+                            if adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):
+                                refined, undo = self._adapt(adapt)
+                                self.records[-1]["refined_polygons"] = refined
+                        else:
+                            then = "re-balancing failed" if attempt.rebalancing else "cutting the increment"
+                            say(log, f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
+                                     f"{rec.newton_iterations} its); {then}", p.verbose, p.comm)
+                        if not attempt.converged and attempt.rebalancing:
+                            if undo is None:
+                                raise SolveFailed(f"re-balancing at load factor {p.load:.6g} failed "
+                                                  f"({rec.failure})")
+                            self._undo_adaptation(*undo)
+                            undo, adapt, refined = None, None, -1
+                        last_word.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
+                        if refined or stop.requested(p.comm):
+                            break
+                    solver.destroy()
+                    converged_x.destroy()
+                    if not refined:
+                        break
+                    if writer is not None:
+                        writer.new_mesh(p.disc, p.x)
+                    self.control.forget_history()
+                    rebalance, transferred, refined = refined > 0, refined > 0, 0
+            except SolveFailed as err:
+                n_done = sum(r["converged"] for r in self.records)
+                message = f"step {n_done + 1}: {err}"
+                err.args = (message,)
+                if self.raise_on_failure:
+                    self._finish(writer, message)
+                    raise
+            except KeyboardInterrupt:
+                converged_x.copy(p.x)
+                p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal.SIGINT} (KeyboardInterrupt) at load factor "
+                                     f"{p.load:.6g}")
+                raise
+        signalled = stop.requested(p.comm)
+        if signalled:
+            message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {p.load:.6g}"
+        return self._finish(writer, message)
+
+    def _step_solver(self) -> StepSolver:
+        """The solvers of the problem's current mesh, its constraints registered."""
+        p = self.problem
+        constraints = p.constraints()
+        p.disc.set_constraints(constraints.dofs)
+        equilibrium = p.equilibrium()
+        newton = SNESNewton(equilibrium, self.petsc_options, p.petsc_options_prefix, p.linear_solver)
+        parts = (equilibrium, newton, p.x,
+                 constraints.final, constraints.dofs_of, p.contact_state, p.boundary.tolerance)
+        if self.continuation is None:
+            return StepSolver(*parts)
+        return ContinuedStepSolver(*parts, continuation=self.continuation)
+
+    def _wall(self) -> float:
+        return time.perf_counter() - self.t_start + self.earlier_wall_time
+
+    # ------------------------------------------------------------------ continuation and adaptivity
+    def _rebalance(self, solver: StepSolver) -> Attempt:
+        """Equilibrium at the load factor already reached, ``problem.load``, from the current state
+        (a transferred one after a refinement): Newton's method at that load; if it fails (a
+        state far from equilibrium can fold the soft medium), the residual r_0 of the starting
+        state is relaxed instead, R(u) = (1 - s) r_0 for s ramped from 0 to 1 with cut-back
+        (prescribed values unchanged throughout), and the last solve at s = 1 is Newton's at the
+        load (docs/refinement-local.md). Without loads only; with loads the first solve decides."""
+        p = self.problem
+        t0 = time.perf_counter()
+        start = p.x.copy()
+        result = solver.solve_at(p.load)
+        if not result.converged and not solver.equilibrium.has_loads:
+            start.copy(p.x)
+            p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            result = self._relax(solver, result.iterations)
+        if not result.converged:
+            start.copy(p.x)
+            p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        start.destroy()
+        return Attempt(p.load, result, time.perf_counter() - t0, rebalancing=True)
+
+    def _relax(self, solver: StepSolver, iterations: int) -> NewtonResult:
+        """The homotopy of :meth:`_rebalance` from the current state; ``iterations`` done before
+        are added to the result's."""
+        p = self.problem
+        r0 = p.disc.create_vector()
+        p.disc.residual(p.x, r0)
+        homotopy = _Relaxation(solver, r0, self.petsc_options)
+        ramp = LoadStepping(RELAX_STEPS, min_increment=1.0 / RELAX_STEPS / 4)
+        try:
+            for attempt in ramp.attempts(homotopy):
+                iterations += attempt.result.iterations
+            result = solver.solve_at(p.load)
+        except SolveFailed as err:
+            result = dataclasses.replace(attempt.result, iterations=0, failure=f"relaxing the residual: {err}")
+        finally:
+            homotopy.destroy()
+            r0.destroy()
+        result.iterations += iterations
+        return result
+
+    def _undo_adaptation(self, mesh, state: np.ndarray) -> None:
+        """Back to ``mesh`` and ``state`` (n_nodes, 2) from before the adaptive refinement whose
+        re-balancing failed, adaptivity off for the rest of the path: the last converged step is
+        kept as it was, nothing is lost (collective)."""
+        p = self.problem
+        self.records[-1]["failure"] += "; refinement undone, adaptivity off for the rest of the path"
+        say(log, f"  re-balancing the refined mesh at load {p.load:.5g} failed: back to the mesh before "
+                 "(adaptivity off for the rest of the path)", p.verbose, p.comm)
+        p.rebuild(mesh, state)
+        last = next(r for r in reversed(self.records) if r["converged"])
+        last["refined_polygons"] = 0
+
+    def _adapt(self, adapt: Adaptivity) -> tuple[int, tuple | None]:
+        """Refine where ``adapt`` says at the current (converged) state: the number of polygons
+        split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
+        p = self.problem
+        refinement = adapt.refinement(p)
+        if refinement is None:
+            return 0, None
+        before = (p.mesh, p.gathered_state())
+        p.move_to(refinement)
+        adapt.refined(refinement)
+        say(log, f"  adapt at load {p.load:.5g}: {refinement.describe()}, {p.disc.num_dofs_global} unknowns",
+            p.verbose, p.comm)
+        return int(refinement.selected.sum()), before
+
+    # ------------------------------------------------------------------ records
+    def _record(self, attempt: Attempt, step: int, solver: StepSolver) -> StepRecord:
+        """The record of an attempt; a converged one with its gap, contact pressure, reactions
+        (from the force the Newton solver has at the converged state), loads, largest
+        displacement and the observers' values (collective)."""
+        p = self.problem
+        res = attempt.result
+        rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
+                         residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
+                         kinked_elements=res.kinked, negative_pivots=res.negative_pivots, failure=res.failure,
+                         wall_time_s=attempt.wall_time_s)
+        if attempt.converged:
+            rec.stable = is_stable(res.negative_pivots, self.control.traces_unstable_branches)
+            gap, pressure = solver.contact
+            rec.gap = gap.as_dict()
+            rec.contact = [pair.as_dict() for pair in pressure.pairs]
+            solver.newton.force_at(p.x)
+            rec.reaction = p.reactions(force=solver.newton.force, dofs_of=solver.dofs_of)
+            rec.loads = {load.name: load.measure(p.x, attempt.load) for load in solver.equilibrium.loads}
+            rec.max_displacement = p.max_displacement()
+            rec.extra = observe(p, self.observers)
+            rec.dofs = int(p.disc.num_dofs_global)
+        return rec
+
+    def _check_initial_state(self) -> None:
+        """Reject a starting state with J <= 0 (inverted elements), folded elements, a non-finite
+        energy or overlapping solids."""
+        p = self.problem
+        b = p.disc.create_vector()
+        p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        info = p.disc.residual(p.x, b)
+        b.destroy()
+        if not info.admissible:
+            raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
+                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}; {info.folded} folded "
+                             f"element(s), e.g. {info.folded_polygon}")
+        gap = p.contact_gap()
+        if gap.overlapping:
+            raise ValueError(f"the solids overlap in the initial configuration: {gap.describe()}")
+
+    def _restore_checkpoint(self) -> list[dict]:
+        """Load state, control state and converged records of the stopped run in ``out``."""
+        p = self.problem
+        saved = read_checkpoint(self.out, self.summary([], 0.0, False))
+        p.disc.set_state(saved.keys, saved.values, p.x)
+        p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.control.restore(saved.control)
+        if saved.previous is not None:
+            self.control.previous = p.disc.create_vector()
+            p.disc.set_state(saved.keys, saved.previous, self.control.previous)
+        p.load = self.control.load
+        self.earlier_wall_time = saved.wall_time_s
+        records = [r for r in saved.records if r["load"] <= self.control.load + 1e-14]
+        say(log, f"resuming from load factor {self.control.load:.6g} after {len(records)} converged steps",
+            p.verbose, p.comm)
+        return records
+
+    def _warn_instability(self, rec: StepRecord) -> None:
+        """A warning when the path enters unstable states (:mod:`~dolfinx_sfvem.path_following.stability`): at the
+        first unstable converged step after a stable one (or the start)."""
+        previous = [r for r in self.records[:-1] if r["converged"]]
+        if rec.stable is False and (not previous or previous[-1].get("stable") is not False) \
+                and self.problem.comm.rank == 0:
+            warn(log, f"step {rec.step}: {instability(rec.load, rec.negative_pivots)}")
+
+    def summary(self, records: list[dict], wall: float, converged: bool, message: str = "") -> dict:
+        """The content of summary.json (``stable``: of the last converged state, :mod:`~dolfinx_sfvem.path_following.stability`)."""
+        p = self.problem
+        if self.continuation is None:
+            description = p.describe()
+        else:
+            with self.continuation.as_asked():
+                description = p.describe()
+            description["parameters"]["gamma_continuation"] = self.continuation.describe()
+        return {
+            "method": description.pop("method"),
+            "dofs": description.pop("dofs"),
+            **description.pop("discretization"),
+            "ranks": int(p.comm.size),
+            "wall_time_s": wall,
+            "converged": bool(converged),
+            "stable": final_stability(records),
+            "message": message,
+            "parameters": {**description.pop("parameters"), "control": self.control.describe()},
+            "steps": records,
+        }
+
+    def _finish(self, writer: RunWriter | None, message: str) -> Result:
+        """Write the final outputs and return the result."""
+        p = self.problem
+        wall = self._wall()
+        converged = (p.load >= self.until - 1e-12 or self.control.finished) and not message
+        summary = self.summary(self.records, wall, converged, message)
+        if writer is not None:
+            writer.finish(summary, p.point_displacements(), p.contact_pressure(), p.boundary)
+        if message:
+            say(log, f"run stopped: {message}", True, p.comm)
+        stable = summary["stable"]
+        if stable is False and p.comm.rank == 0:
+            last = [r for r in self.records if r["converged"]][-1]
+            warn(log, f"the path {'reached' if converged else 'stopped at'} load factor {p.load:.6g}, but "
+                      f"{instability(last['load'], last['negative_pivots'])}: not an answer")
+        return Result(converged, p.load, [r for r in self.records if r["converged"]], self.records, wall, summary,
+                      message, stable)
+
+    def _progress(self, rec: StepRecord) -> None:
+        """The progress line of a converged step (:func:`~dolfinx_sfvem.output.run_output.progress_line`)."""
+        say(log, progress_line(rec), self.problem.verbose, self.problem.comm)
+
+
+class _Relaxation:
+    """The homotopy R(u) = (1 - s) r_0 of :meth:`LoadPath._rebalance` as a step solver for
+    :class:`LoadStepping`: r_0 a dead load at the load factor 1 - s (prescribed values fixed)."""
+
+    def __init__(self, solver: StepSolver, r0: PETSc.Vec, petsc_options: typing.Mapping[str, typing.Any] | None):
+        disc = solver.equilibrium.disc
+        self.x = solver.x
+        self.equilibrium = Equilibrium(disc, [VectorLoad("relaxation", disc, r0, 1.0)])
+        self.newton = SNESNewton(self.equilibrium, petsc_options, solver.newton.prefix,
+                                 solver.newton.linear_solver)
+        self.g = solver.equilibrium.load * solver.final
+
+    def solve_at(self, s: float, energy_merit: bool = False) -> NewtonResult:
+        return self.newton.solve(self.x, self.g, 1.0 - s, energy_merit)
+
+    def destroy(self) -> None:
+        self.newton.destroy()
+        self.equilibrium.destroy()
