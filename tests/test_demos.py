@@ -221,7 +221,7 @@ def test_a_library_exit_still_leaves_a_message(tmp_path, status):
     script.write_text(f"""import ctypes, sys
 sys.path.insert(0, {str(DEMOS)!r})
 import _common
-from dolfinx_sfvem import last_word
+from dolfinx_sfvem.output import last_word
 
 def deep_inside_a_library():
     ctypes.CDLL(None).exit({status})
