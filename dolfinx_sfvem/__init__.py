@@ -26,7 +26,7 @@ LagrangeDiscretization
 linear_elastic_stiffness
     The plane-strain linear-elastic SFVEM stiffness of one polygon.
 meshes
-    The paper's geometries (benchmarks.py) and the mesh-making tools (meshing/) in one namespace.
+    The paper's geometries and the mesh-making tools (both in meshing/) in one namespace.
 """
 from dolfinx_sfvem import _compat  # noqa: F401  (first: with the dolfinx-solver wheels it loads MPI before the bindings)
 from dolfinx_sfvem import meshes
