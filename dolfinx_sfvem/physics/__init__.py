@@ -1,1 +1,1 @@
-"""The physics of a contact run: strain energies, loads, the balance they make, the contact checks, exact answers."""
+"""The physics of a contact run: strain energies, loads, the balance they make, the contact checks."""
