@@ -27,9 +27,9 @@ directory); 2 invalid input (argparse errors, or a ``ValueError`` / ``SolveFaile
 the library), reported on stderr without a traceback; 3 any other exception, reported on stderr
 with its traceback and a last line naming it and where it was raised (in a parallel run by
 the ranks that raised it, and then every rank is ended: ``MPI_Abort``, as a rank that raised
-alone would leave the others waiting in a collective call forever); 130 a second Ctrl-C, which
-interrupts the step under way (the first stops the path after it): one line on stderr, the
-converged steps kept.
+alone would leave the others waiting in a collective call forever); 130 a second Ctrl-C and 143
+a second SIGTERM (a batch scheduler's notice before it kills), which interrupt the step under way
+(the first stops the path after it): one line on stderr, the converged steps kept.
 """
 from __future__ import annotations
 
@@ -37,7 +37,9 @@ import argparse
 import csv
 import math
 import pathlib
+import signal
 import sys
+import threading
 import traceback
 import typing
 
@@ -46,6 +48,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.path_following.interrupt import raise_interrupted, signal_of
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX, options_from_tokens
 
 METHODS = ("vem", "fem")
@@ -347,8 +350,9 @@ def read_load_path(path: pathlib.Path) -> list[dict[str, float]]:
 
 #: exit code of a run ended by an unexpected exception (module docstring)
 CRASHED = 3
-#: exit code of a run interrupted at once by a second Ctrl-C (128 + SIGINT, as a shell reports it)
-INTERRUPTED = 130
+#: exit code of a run interrupted at once by a second Ctrl-C (128 + SIGINT, as a shell reports it);
+#: by a second SIGTERM: 128 + SIGTERM
+INTERRUPTED = 128 + signal.SIGINT
 
 
 def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
@@ -356,18 +360,22 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
     """Run a demo's ``main(argv)`` with :mod:`~dolfinx_sfvem.output.last_word` armed (a library that ends
     the process with ``exit()`` still leaves a message); expected failures become a message on stderr and exit code 2,
     any other exception its traceback and :func:`crash_message` on stderr and exit code
-    :data:`CRASHED`; a second Ctrl-C (the first stops the path after its step) a one-line message
-    and exit code :data:`INTERRUPTED` (the load path has already said what it kept). In parallel
+    :data:`CRASHED`; a second Ctrl-C or SIGTERM (the first stops the path after its step), or
+    one outside the load path, a one-line message and exit code 128 + the signal's number
+    (:data:`INTERRUPTED` for Ctrl-C; the load path has already said what it kept). In parallel
     all of them end every rank through ``MPI_Abort`` (an error raised on one rank alone would leave
     the others waiting in a collective), and each rank that raised names itself."""
     comm = MPI.COMM_WORLD
     last_word.arm()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, raise_interrupted)     # the load path's StopRequest takes over during it
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
         return _end(comm, f"error: {err}", 2)
-    except KeyboardInterrupt:
-        return _end(comm, "interrupted", INTERRUPTED)
+    except KeyboardInterrupt as err:
+        signum = signal_of(err)
+        return _end(comm, f"interrupted by signal {signum} ({signal.Signals(signum).name})", 128 + signum)
     except Exception as err:
         traceback.print_exc()
         return _end(comm, crash_message(err), CRASHED)

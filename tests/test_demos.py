@@ -6,12 +6,14 @@ import csv
 import importlib.util
 import json
 import pathlib
+import signal
 import subprocess
 import sys
 
 import pytest
 
 from dolfinx_sfvem import mpi_launcher
+from dolfinx_sfvem.path_following import interrupt
 from dolfinx_sfvem.output.run_summary import read_summary
 from dolfinx_sfvem.mpi_launcher import job_environment
 from process_report import report
@@ -123,16 +125,21 @@ def test_expected_errors_become_exit_code_2(capsys, error):
     assert capsys.readouterr().err.strip() == "error: polygon 7: self-intersection"
 
 
-def test_a_second_ctrl_c_ends_with_one_line_and_exit_code_130(capsys):
-    """KeyboardInterrupt (the load path raises it on a second Ctrl-C, after saying what it kept):
-    no traceback, one line, the shell's exit code for SIGINT."""
+@pytest.mark.parametrize("raised, code, name", [
+    (KeyboardInterrupt(), 130, "2 (SIGINT)"),                        # Ctrl-C where no handler is installed
+    (interrupt.Interrupted(signal.SIGINT), 130, "2 (SIGINT)"),       # a second Ctrl-C
+    (interrupt.Interrupted(signal.SIGTERM), 143, "15 (SIGTERM)"),    # a second SIGTERM
+])
+def test_a_second_signal_ends_with_one_line_and_the_shells_exit_code(capsys, raised, code, name):
+    """KeyboardInterrupt (the load path raises it on a second Ctrl-C or SIGTERM, after saying what
+    it kept): no traceback, one line, the shell's exit code for the signal (128 + its number)."""
     common = load_common()
 
     def main(argv):
-        raise KeyboardInterrupt
+        raise raised
 
-    assert common.exit_code(main) == 130
-    assert capsys.readouterr().err.strip() == "interrupted"
+    assert common.exit_code(main) == code
+    assert capsys.readouterr().err.strip() == f"interrupted by signal {name}"
 
 
 def test_an_unexpected_error_ends_with_what_and_where(capsys):

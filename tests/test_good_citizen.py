@@ -153,12 +153,18 @@ def test_a_cold_compiler_cache_prints_nothing(tmp_path):
 
 
 # --------------------------------------------------------------------------- interrupts
-def test_second_sigint_interrupts_at_once():
+@pytest.mark.parametrize("first, second", [(signal.SIGINT, signal.SIGINT), (signal.SIGTERM, signal.SIGTERM),
+                                           (signal.SIGTERM, signal.SIGINT)])
+def test_a_second_signal_interrupts_at_once(first, second):
+    """The first SIGINT or SIGTERM asks to stop after the step; a second one of either interrupts at
+    once with a KeyboardInterrupt that names it."""
     with interrupt.StopRequest(True) as stop:
-        signal.raise_signal(signal.SIGINT)
-        assert stop.signalled == signal.SIGINT
-        with pytest.raises(KeyboardInterrupt):
-            signal.raise_signal(signal.SIGINT)
+        signal.raise_signal(first)
+        assert stop.signalled == first
+        with pytest.raises(KeyboardInterrupt) as raised:
+            signal.raise_signal(second)
+    assert interrupt.signal_of(raised.value) == second
+    assert interrupt.signal_of(KeyboardInterrupt()) == signal.SIGINT
 
 
 def test_no_handlers_off_the_main_thread_or_in_a_notebook_kernel(monkeypatch):

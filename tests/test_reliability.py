@@ -237,3 +237,24 @@ def test_sigterm_keeps_converged_steps_and_resume_finishes(tmp_path):
     final = json.loads(summary.read_text())
     assert final["converged"] and [s["step"] for s in final["steps"]] == list(range(1, 31))
     assert final["steps"][-1]["extra"]["tip_uy"] == pytest.approx(-0.3, abs=1e-9)
+
+
+def test_a_second_sigterm_ends_the_run_at_once_with_one_line(tmp_path):
+    """SIGTERM twice, as a batch scheduler sends it before it kills: the run ends within the step
+    under way or its outputs, with one line on stderr, exit code 143 (128 + SIGTERM) and the
+    converged steps kept."""
+    run = _demo(["--h", "0.1", "--uy", "-0.3", "--steps", "30", "--fixed-increments", "--quiet",
+                 "--out", str(tmp_path / "run")])
+    summary = tmp_path / "run" / "summary.json"
+    deadline = time.time() + 120
+    while time.time() < deadline and not (summary.exists() and len(json.loads(summary.read_text())["steps"]) >= 2):
+        time.sleep(0.2)
+    run.send_signal(signal.SIGTERM)
+    time.sleep(0.2)
+    run.send_signal(signal.SIGTERM)
+    _, err = run.communicate(timeout=120)
+    assert run.returncode == 128 + signal.SIGTERM, err
+    assert "Traceback" not in err and err.strip().splitlines()[-1] == "interrupted by signal 15 (SIGTERM)"
+    stopped = json.loads(summary.read_text())
+    assert stopped["message"].startswith("stopped by signal 15") and not stopped["converged"]
+    assert 2 <= sum(s["converged"] for s in stopped["steps"]) < 30

@@ -372,3 +372,43 @@ def test_stall_is_classified_by_its_residual_floor(norms, atol, roundoff, kind):
     floor = min(norms)
     assert kind in text and f"{floor:.3e} = {floor / atol:.3g} x atol" in text
     assert ("round-off eps*F_c" in text) == (roundoff is not None)
+
+
+# ----------------------------------------------------------------------------- abandoned solves
+def linear(rate: float, n: int, r0: float = 1e-2) -> list[float]:
+    return [r0 * rate ** k for k in range(n + 1)]
+
+
+@pytest.mark.parametrize("norms, at", [
+    (linear(0.95, 30), None),                                    # slow but steady: never abandoned
+    (model_sequence(lambda r: 50 * r ** 2, 1e-2), None),         # quadratic
+    ([1e-2] * solver.STALL_MIN_ITERATIONS, None),                # flat, but too few iterations to judge
+    ([1e-2, 1e-3] + [2e-3, 1.5e-3] * 10, solver.STALL_MIN_ITERATIONS),   # wandering from iteration 1 on
+    (linear(0.5, 8) + [4e-5 * (1 + 0.01 * k) for k in range(10)], 8 + solver.STALL_WINDOW),
+])
+def test_a_stalled_residual_is_recognised_at_the_first_iteration_it_can_be(norms, at):
+    """:func:`snes.stalled` flags the first iteration k >= STALL_MIN_ITERATIONS whose last
+    STALL_WINDOW residuals are all above STALL_DECREASE times the smallest before them; a steady
+    decrease of 5 % per iteration is never flagged."""
+    flags = [solver.stalled(norms[:k + 1]) for k in range(len(norms))]
+    first = flags.index(True) if any(flags) else None
+    assert first == at
+
+
+def test_a_solve_whose_trial_states_leave_the_domain_is_abandoned(block):
+    """The block squeezed in one step to 3 times its height (no admissible state exists beyond
+    load 1/3): every failed attempt stops after at most MAX_REJECTED + 1 rejected trial states per
+    line search, says so, and the summary counts the rejected trial states and where the Newton
+    iterations went."""
+    problem = block.compressed(uy=-3 * block.HEIGHT)
+    result = problem.solve(1, min_increment=1 / 16)
+    failed = [a for a in result.attempts if not a["converged"]]
+    assert failed
+    abandoned = [a for a in failed if "abandoned after" in a["failure"]]
+    assert abandoned, [a["failure"] for a in failed]
+    assert all(0 < a["rejected_trial_states"] <= 2 * (solver.MAX_REJECTED + 1) for a in abandoned)
+    economy = result.summary["newton"]
+    assert economy["iterations"] == sum(a["newton_iterations"] for a in result.attempts)
+    assert economy["in_failed_attempts"] == sum(a["newton_iterations"] for a in failed) > 0
+    assert economy["failed_share"] == pytest.approx(economy["in_failed_attempts"] / economy["iterations"])
+    assert economy["rejected_trial_states"] == sum(a["rejected_trial_states"] for a in result.attempts)

@@ -44,7 +44,7 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: name of the contact pressure's field in the XDMF series (beside the displacement ``u``)
 PRESSURE_FIELD = "contact_pressure"
 #: summary.json entries that may differ between a stopped run and its resumption
-_RUN_ENTRIES = ("wall_time_s", "converged", "stable", "message", "steps", "ranks")
+_RUN_ENTRIES = ("wall_time_s", "converged", "stable", "message", "newton", "steps", "ranks")
 
 
 def problem_identity(summary: typing.Mapping[str, typing.Any]) -> dict[str, typing.Any]:

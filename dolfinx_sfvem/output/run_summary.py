@@ -2,8 +2,9 @@
 
 The file is written by :class:`~dolfinx_sfvem.path_following.load_path.LoadPath` (``summary``): the
 discretization (``method``, ``dofs`` and the mesh facts of its ``describe()``), the run
-(``ranks``, ``wall_time_s``, ``converged``, ``message``), the ``parameters`` and one record per
-attempted load step (:class:`StepRecord`). Every reader of the file uses
+(``ranks``, ``wall_time_s``, ``converged``, ``message``), where its Newton iterations went
+(``newton``, :func:`newton_economy`), the ``parameters`` and one record per attempted load step
+(:class:`StepRecord`). Every reader of the file uses
 :func:`read_summary` instead of the raw keys.
 """
 from __future__ import annotations
@@ -20,7 +21,8 @@ RUNNING = "running"
 #: ``message`` of a run stopped by SIGINT/SIGTERM (followed by the signal number)
 STOPPED_BY_SIGNAL = "stopped by signal"
 #: summary entries of the run itself; every other top-level entry is a fact of the discretization
-_RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "stable", "message", "parameters", "steps")
+_RUN_KEYS = ("method", "dofs", "ranks", "wall_time_s", "converged", "stable", "message", "newton", "parameters",
+             "steps")
 
 
 #: an observer of a load path: ``f(problem)`` returns one number, or several named ones
@@ -87,6 +89,25 @@ class StepRecord:
     dofs: int = 0                   # unknowns of the mesh the step was solved on
     refined_polygons: int = 0       # polygons split after this step by adaptive refinement
     loads: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)   # magnitude, displacement per load
+    rejected_trial_states: int = 0  # trial states of Newton's line searches outside the energy's domain
+
+
+def newton_economy(records: typing.Sequence[typing.Mapping[str, typing.Any]]) -> dict[str, float]:
+    """Where the Newton iterations of the attempts ``records`` (summary.json's ``steps``) went:
+    ``iterations`` in all, ``in_failed_attempts`` of them in attempts that were not accepted,
+    ``failed_share`` = in_failed_attempts / iterations (0 without iterations) and
+    ``rejected_trial_states`` (trial states outside the energy's domain, all attempts)."""
+    total = sum(int(r["newton_iterations"]) for r in records)
+    failed = sum(int(r["newton_iterations"]) for r in records if not r["converged"])
+    return {"iterations": total, "in_failed_attempts": failed, "failed_share": failed / total if total else 0.0,
+            "rejected_trial_states": sum(int(r.get("rejected_trial_states", 0)) for r in records)}
+
+
+def describe_economy(economy: typing.Mapping[str, float]) -> str:
+    """One line of :func:`newton_economy`'s numbers."""
+    return (f"{economy['iterations']} Newton iterations, {economy['in_failed_attempts']} "
+            f"({economy['failed_share']:.0%}) in failed attempts, {economy['rejected_trial_states']} trial "
+            "states rejected")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,6 +157,8 @@ class Step:
     loads : dict name -> {"magnitude": float, "displacement": float}
         Every load's magnitude at this step and its work-conjugate displacement
         (:mod:`~dolfinx_sfvem.physics.loads`).
+    rejected_trial_states : int
+        Trial states of Newton's line searches outside the energy's domain (J <= 0, a fold, NaN).
     """
 
     load: float
@@ -157,6 +180,7 @@ class Step:
     dofs: int = 0
     refined_polygons: int = 0
     loads: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+    rejected_trial_states: int = 0
 
     def value(self, key: str) -> float | None:
         """An observer of ``extra``, else a numeric field of the step (e.g. ``max_displacement``);
@@ -246,6 +270,12 @@ class RunSummary:
     def newton_iterations(self) -> int:
         """Newton iterations of all attempts, failed ones included."""
         return sum(s.newton_iterations for s in self.steps)
+
+    @property
+    def failed_share(self) -> float:
+        """The share of the Newton iterations spent in attempts that were not accepted
+        (:func:`newton_economy`)."""
+        return newton_economy([dataclasses.asdict(s) for s in self.steps])["failed_share"]
 
     @property
     def interrupted(self) -> bool:

@@ -3,7 +3,10 @@
 In a script (the main thread of a plain interpreter) :class:`StopRequest` turns the first SIGINT
 (Ctrl-C) or SIGTERM into a request to stop after the current load step: the run ends with every
 converged step written and a message saying it was stopped (``solve(..., resume=True)``
-continues it). A second Ctrl-C interrupts at once with ``KeyboardInterrupt``.
+continues it). A second SIGINT or SIGTERM (a batch scheduler's second notice before it kills)
+interrupts at once with :class:`Interrupted`, a ``KeyboardInterrupt`` that names its signal:
+the load path puts the state back to its last converged step and writes its outputs before the
+exception goes on.
 
 Where Python cannot install signal handlers (a thread other than the main one) or where the user
 expects Ctrl-C to interrupt (an IPython kernel: Jupyter's "interrupt the kernel"), no handler is
@@ -38,9 +41,29 @@ def handles_signals() -> bool:
     return threading.current_thread() is threading.main_thread() and not in_notebook_kernel()
 
 
+class Interrupted(KeyboardInterrupt):
+    """A run interrupted at once by the signal ``signum`` (a second SIGINT or SIGTERM)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+
+def raise_interrupted(signum: int, frame) -> None:
+    """A signal handler: raise :class:`Interrupted` (SIGTERM outside a load path, where Python's
+    default would end the process without a word)."""
+    raise Interrupted(signum)
+
+
+def signal_of(interrupt: KeyboardInterrupt) -> int:
+    """The signal number of a ``KeyboardInterrupt``: an :class:`Interrupted`'s own, SIGINT for
+    any other (Python raises those on Ctrl-C where no handler is installed)."""
+    return getattr(interrupt, "signum", int(signal.SIGINT))
+
+
 class StopRequest:
     """Context manager: while active, the first SIGINT or SIGTERM is recorded as a request to stop
-    after the current step, a second SIGINT raises ``KeyboardInterrupt`` (module docstring).
+    after the current step, a second one of either raises :class:`Interrupted` (module docstring).
 
     Parameters
     ----------
@@ -54,10 +77,10 @@ class StopRequest:
         self._old = {}
 
     def _handler(self, signum, frame):
-        if self.signalled and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        if not self.signalled:
-            say(log, f"signal {signum}: stopping after the current step (Ctrl-C again interrupts at once)")
+        if self.signalled:
+            raise Interrupted(signum)
+        say(log, f"signal {signum}: stopping after the current step (the same signal or Ctrl-C again "
+                 "interrupts at once)")
         self.signalled = signum
 
     def requested(self, comm: MPI.Comm) -> int:

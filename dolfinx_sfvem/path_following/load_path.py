@@ -22,7 +22,6 @@ import dataclasses
 import itertools
 import logging
 import pathlib
-import signal
 import time
 import typing
 from dataclasses import asdict
@@ -34,11 +33,12 @@ from dolfinx_sfvem.output import last_word
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.gamma_continuation import ContinuedStepSolver, GammaContinuation
-from dolfinx_sfvem.path_following.interrupt import StopRequest
+from dolfinx_sfvem.path_following.interrupt import StopRequest, signal_of
 from dolfinx_sfvem.output.logs import say, warn
 from dolfinx_sfvem.physics.loads import VectorLoad
 from dolfinx_sfvem.output.run_output import RunWriter, progress_line, read_checkpoint
-from dolfinx_sfvem.output.run_summary import STOPPED_BY_SIGNAL, Observer, Result, StepRecord
+from dolfinx_sfvem.output.run_summary import (
+    STOPPED_BY_SIGNAL, Observer, Result, StepRecord, describe_economy, newton_economy)
 from dolfinx_sfvem.problem import ContactProblem
 from dolfinx_sfvem.path_following.snes import NewtonResult, SNESNewton, SolveFailed
 from dolfinx_sfvem.path_following.stability import final_stability, instability, is_stable
@@ -123,12 +123,13 @@ class LoadPath:
         message = ""
         refined, transferred = 0, False        # polygons split after the last converged step; state transferred
         undo = None                            # mesh and state before the last adaptive refinement
+        converged_x = None                     # the state to go back to on KeyboardInterrupt, during attempts
         adapt = self.adapt
         with StopRequest(self.handle_signals) as stop:
             try:
                 while True:
                     solver = self._step_solver()
-                    converged_x = p.x.copy()             # the state to go back to on KeyboardInterrupt
+                    converged_x = p.x.copy()
                     if not transferred:
                         self._check_initial_state()      # a transferred state is checked by re-balancing
                     path = [self._rebalance(solver)] if rebalance else []
@@ -163,6 +164,7 @@ class LoadPath:
                             break
                     solver.destroy()
                     converged_x.destroy()
+                    converged_x = None
                     if not refined:
                         break
                     if writer is not None:
@@ -176,11 +178,12 @@ class LoadPath:
                 if self.raise_on_failure:
                     self._finish(writer, message)
                     raise
-            except KeyboardInterrupt:
-                converged_x.copy(p.x)
-                p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal.SIGINT} (KeyboardInterrupt) at load factor "
-                                     f"{p.load:.6g}")
+            except KeyboardInterrupt as err:
+                if converged_x is not None:
+                    converged_x.copy(p.x)
+                    p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal_of(err)} ({str(err) or 'KeyboardInterrupt'}, at once) "
+                                     f"at load factor {p.load:.6g}")
                 raise
         signalled = stop.requested(p.comm)
         if signalled:
@@ -281,7 +284,7 @@ class LoadPath:
         rec = StepRecord(step=step, load=attempt.load, newton_iterations=res.iterations,
                          residual_norms=res.residual_norms, converged=res.converged, min_J=res.min_J,
                          kinked_elements=res.kinked, negative_pivots=res.negative_pivots, failure=res.failure,
-                         wall_time_s=attempt.wall_time_s)
+                         wall_time_s=attempt.wall_time_s, rejected_trial_states=res.rejected)
         if attempt.converged:
             rec.stable = is_stable(res.negative_pivots, self.control.traces_unstable_branches)
             gap, pressure = solver.contact
@@ -354,6 +357,7 @@ class LoadPath:
             "converged": bool(converged),
             "stable": final_stability(records),
             "message": message,
+            "newton": newton_economy(records),
             "parameters": {**description.pop("parameters"), "control": self.control.describe()},
             "steps": records,
         }
@@ -368,6 +372,7 @@ class LoadPath:
             writer.finish(summary, p.point_displacements(), p.contact_pressure(), p.boundary)
         if message:
             say(log, f"run stopped: {message}", True, p.comm)
+        say(log, describe_economy(summary["newton"]), p.verbose, p.comm)
         stable = summary["stable"]
         if stable is False and p.comm.rank == 0:
             last = [r for r in self.records if r["converged"]][-1]

@@ -21,6 +21,15 @@ acceptable), and a solve that fails with it is repeated once from its start with
 onset) before the caller cuts the increment back; measurements in docs/notes/2026-11-23-performance-rounds.md. A line
 search given on the command line or from Python has no fallback.
 
+A solve that cannot succeed is abandoned early (:meth:`SNESNewton.abandon_reason`): when
+its trial states left the energy's domain more than :data:`MAX_REJECTED` times (J <= 0, a fold,
+NaN; each such trial state costs a residual and its line search then creeps along a direction
+that leads out of the admissible states), or when its smallest residual fell by less than the
+factor :data:`STALL_DECREASE` over the last :data:`STALL_WINDOW` iterations, from
+:data:`STALL_MIN_ITERATIONS` on (Newton then wanders instead of converging). The rest of the solve
+costs nothing: no residual, tangent or factorization is computed any more, SNES's line search
+fails at once, and the caller cuts the increment back.
+
 Default linear solver: MUMPS LDLᵀ (``pc_type cholesky``), which reports the inertia of the
 tangent; :class:`~dolfinx_sfvem.physics.equilibrium.Equilibrium` says when the tangent is not symmetric
 (a follower pressure on an open boundary), and then MUMPS LU (``pc_type lu``) is the default.
@@ -84,6 +93,14 @@ MERIT_SWITCH = 1e-2
 MERIT_HALVINGS = 20
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
+#: a solve is abandoned once more of its trial states than this left the energy's domain (module docstring)
+MAX_REJECTED = 12
+#: a solve is abandoned from this iteration on when its residual stalls (module docstring) ...
+STALL_MIN_ITERATIONS = 10
+#: ... i.e. when the last STALL_WINDOW residuals ...
+STALL_WINDOW = 6
+#: ... stay above STALL_DECREASE times the smallest residual before them
+STALL_DECREASE = 0.9
 
 Options = typing.Mapping[str, typing.Any]
 
@@ -176,6 +193,7 @@ class NewtonResult:
     ``negative_pivots``: negative pivots of the last LDL^T factorization of the solve (MUMPS
     INFOG(12)), i.e. the number of negative eigenvalues of the tangent with the constraints
     eliminated, at the last state Newton factorized; None with another factorization.
+    ``rejected``: trial states of the solve (both line searches) outside the energy's domain.
     """
     converged: bool
     reason: int
@@ -188,6 +206,17 @@ class NewtonResult:
     kinked: int = 0
     failure: str = ""
     negative_pivots: int | None = None
+    rejected: int = 0
+
+
+def stalled(norms: typing.Sequence[float]) -> bool:
+    """Whether Newton's residual norms ``norms`` (r_0, ..., r_k) have stalled: k >=
+    :data:`STALL_MIN_ITERATIONS` and min(r_{k-W+1}, ..., r_k) > :data:`STALL_DECREASE` min(r_0, ...,
+    r_{k-W}) with W = :data:`STALL_WINDOW`."""
+    k = len(norms) - 1
+    if k < STALL_MIN_ITERATIONS:
+        return False
+    return min(norms[-STALL_WINDOW:]) > STALL_DECREASE * min(norms[:-STALL_WINDOW])
 
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
@@ -325,6 +354,7 @@ class SNESNewton:
         self.history: list[float] = []
         self.worst_info = None      # the worst trial state of the current solve (:func:`_worse`)
         self.rejected = 0           # trial states of the current solve outside the energy's domain
+        self.abandoned = ""         # why the current solve was abandoned ("" while it is not)
 
         self.snes = snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(prefix)
@@ -364,9 +394,14 @@ class SNESNewton:
         self.ksp.setTolerances(rtol=self.ksp_rtol)
 
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        if self.abandoned:                    # the rest of an abandoned solve: fail at once
+            _compat.snes_set_function_domain_error(snes)
+            return
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.equilibrium.residual(x, b)
         self.rejected += not info.admissible
+        if self.rejected > MAX_REJECTED:
+            self.abandoned = self.abandon_reason()
         if self.worst_info is None or _worse(info, self.worst_info):
             self.worst_info = info
         b.copy(self.force)
@@ -378,6 +413,8 @@ class SNESNewton:
             _compat.snes_set_function_domain_error(snes)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
+        if self.abandoned:                    # A unchanged: the linear solve reuses its factorization
+            return
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if not self._start_tangent_at(x):
             self.equilibrium.tangent(x, A)
@@ -399,7 +436,7 @@ class SNESNewton:
         if self._lifted:
             self._unlifted.copy(self.b)
             self._lifted = False
-        return self._descend(x, y) if self._merit else False
+        return self._descend(x, y) if self._merit and not self.abandoned else False
 
     def _start(self, x: PETSc.Vec) -> None:
         """The tangent at the start state ``x`` of a solve into :attr:`A`, constraints not applied:
@@ -482,6 +519,20 @@ class SNESNewton:
         self.history.append(float(norm))
         if self._merit and norm < MERIT_SWITCH * self.history[0]:
             self._merit = False
+        if not self.abandoned and stalled(self.history):
+            self.abandoned = self.abandon_reason()
+
+    def abandon_reason(self) -> str:
+        """Why the current solve is abandoned, or "" (module docstring): too many trial states
+        outside the energy's domain, or a stalled residual (:func:`stalled`)."""
+        if self.rejected > MAX_REJECTED:
+            return (f"abandoned after {self.rejected} trial states outside the energy's domain (more than "
+                    f"{MAX_REJECTED}) in {len(self.history)} Newton iterations")
+        if stalled(self.history):
+            return (f"abandoned at Newton iteration {len(self.history) - 1}: the residual fell by less than "
+                    f"{1 - STALL_DECREASE:.0%} over the last {STALL_WINDOW} iterations "
+                    f"(smallest {min(self.history):.3e})")
+        return ""
 
     def _descend(self, x: PETSc.Vec, y: PETSc.Vec) -> bool:
         """The Newton step x - y halved until it lowers the total potential (at most
@@ -520,6 +571,7 @@ class SNESNewton:
         finally:
             self._set_line_search(DEFAULT_PETSC_OPTIONS["snes_linesearch_type"])
         retry.iterations += result.iterations
+        retry.rejected += result.rejected
         return retry
 
     def force_at(self, x: PETSc.Vec) -> AssemblyInfo:
@@ -552,6 +604,7 @@ class SNESNewton:
         self.history = []
         self.worst_info = None
         self.rejected = 0
+        self.abandoned = ""
         self._merit = self._merit_asked
         self._start(x)
         if not np.isfinite(self._stiffness):          # e.g. a predicted state with J <= 0: no Newton from there
@@ -569,9 +622,11 @@ class SNESNewton:
         atol = self.snes.getTolerances()[1]
         failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None,
                                          self.rejected)
-        return NewtonResult(bool(ok), int(reason), int(self.snes.getIterationNumber()), list(self.history),
-                            info.min_J, info.min_J_polygon, info.min_J_tag, info.folded, info.kinked, failure,
-                            self.negative_pivots())
+        if self.abandoned:
+            failure = f"{self.abandoned}; {failure}"
+        return NewtonResult(bool(ok), int(reason), len(self.history) - 1 if self.abandoned else
+                            int(self.snes.getIterationNumber()), list(self.history), info.min_J, info.min_J_polygon,
+                            info.min_J_tag, info.folded, info.kinked, failure, self.negative_pivots(), self.rejected)
 
     def negative_pivots(self) -> int | None:
         """Negative pivots of the last factorization of this solve if it was MUMPS LDL^T (the
