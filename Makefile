@@ -49,7 +49,7 @@ serial-tests = $(1) -m pytest -q -x tests
 mpi-tests = $(call mpi,$(1),-m pytest -q -m mpi -p no:cacheprovider tests)
 
 .PHONY: install install-dolfinx011 demo demo-dolfinx011 test test-serial test-mpi test-dolfinx011 \
-        test-dolfinx011-run docs bench results meshes clean
+        test-dolfinx011-run docs bench peer3d results meshes clean
 
 install: $(STAMP)
 
@@ -117,6 +117,18 @@ bench: $(STAMP)
 	$(PY) bench/loadpath.py --out $(OUT)/loadpath --results bench
 	$(PY) bench/accuracy.py --out $(OUT)/accuracy --results bench
 	$(PY) bench/cbox3d_sizes.py --out $(OUT)/cbox3d_sizes --results bench
+
+# our 3D benchmarks beside dolfiny's own demos (bench/peer3d.py; about 1.5 h on an idle machine):
+# DOLFINY_DEMOS=<a dolfiny checkout>/demo/tmc/3D (its pull request 4) runs the peer too, in the
+# DOLFINx 0.11 venv with dolfiny installed beside the wheel (no dependencies of its own but IPython)
+peer3d: $(STAMP)
+	@if [ -n "$(DOLFINY_DEMOS)" ]; then \
+	  $(MAKE) --no-print-directory $(STAMP011) && $(PY011) -m pip install -q --no-deps dolfiny==0.10.0 && \
+	  $(PY011) -m pip install -q ipython && \
+	  $(PY) bench/peer3d.py --dolfiny $(DOLFINY_DEMOS) --dolfiny-python $(CURDIR)/$(PY011); \
+	else \
+	  $(PY) bench/peer3d.py; \
+	fi
 
 # the paper's examples with SFVEM and FEM on $(NP) and 1 ranks, then docs/results.md (hours;
 # restartable), then the mesh refinement study, docs/refinement.md (about 1.5 h; restartable).

@@ -1,0 +1,205 @@
+"""Our 3D benchmarks beside the peer's: dolfiny's own third-medium demos on the same node grids.
+
+dolfiny (fenics-dolfiny, the demos ``demo/tmc/3D/Cbox_Wriggers_3D.py`` and ``Hertz_Wriggers_3D.py``
+of its pull request 4) runs the Wriggers et al. 2025 rotation regularization on an auxiliary field,
+Q1/P1, MUMPS, fixed steps without cut-back. The cases, each one process:
+
+- ``cbox-line``: the C-box's line contact, corner (2, 0, 0.7) moved by (0, 0.5, -2.0), gamma 2e-6;
+  ours on Q2 hexahedra 20 x 7 x 7 (41 x 15 x 15 nodes, dolfiny's 40 x 14 x 14 Q1 grid), 20 steps;
+- ``hertz-deep``: the quarter sphere through a 0.1 medium gap to u_z = -0.6 (indentation 0.5) in
+  60 steps, gamma 1e-6, h 0.2; ours on P2 tetrahedra.
+
+Per case and code: the load factor reached, Newton iterations (ours: also the share in failed
+attempts), CPU seconds of the whole process, its peak memory, and our wall time to the load the
+peer reached (the sum of the attempts' times up to our first converged step at or beyond it).
+
+dolfiny is optional: ``--dolfiny DIR`` (its ``demo/tmc/3D`` folder) with ``--dolfiny-python PY``
+(a Python with dolfiny and DOLFINx 0.11, e.g. the 0.11 venv after ``pip install --no-deps
+dolfiny==0.10.0``). Times mean something only on an otherwise idle machine.
+
+Usage: ``python bench/peer3d.py [--cases cbox-line hertz-deep] [--dolfiny DIR --dolfiny-python PY]
+[--ours-option=--alpha-r=100 ...]``; writes bench/peer3d.json (a case run again replaces its row)
+and bench/peer3d.md.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import json
+import pathlib
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import typing
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from dolfinx_sfvem.mpi_launcher import job_environment  # noqa: E402
+from dolfinx_sfvem.output import markdown  # noqa: E402
+from dolfinx_sfvem.output.run_summary import newton_economy  # noqa: E402
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """A benchmark: our demo and options, the peer's script and its number of load steps."""
+    demo: str
+    options: tuple[str, ...]
+    peer_script: str
+    peer_steps: int
+
+
+CASES = {
+    "cbox-line": Case("cbox3d.py", ("--contact", "line", "--n", "20", "7", "7", "--gamma", "2e-6", "--steps", "20"),
+                      "Cbox_Wriggers_3D.py", 20),
+    "hertz-deep": Case("hertz3d.py", ("--gamma", "1e-6", "--indent", "0.5", "--h", "0.2", "--h-far", "0.2",
+                                      "--h-core", "0", "--steps", "60"), "Hertz_Wriggers_3D.py", 60),
+}
+
+
+@dataclasses.dataclass
+class Run:
+    """What one run of a case measured."""
+    case: str
+    code: str
+    options: str
+    load: float
+    newton_iterations: int
+    failed_share: float | None
+    cpu_s: float
+    peak_memory_gb: float
+    message: str = ""
+    wall_to_peer_load_s: float | None = None
+
+
+def run_measured(argv: list[str], cwd: pathlib.Path) -> tuple[subprocess.CompletedProcess, float, float]:
+    """Run ``argv`` in ``cwd``: (the finished process, its CPU seconds, its peak resident memory in
+    GB). The CPU time is that of all children this process waited for so far, taken as a
+    difference; the memory, the largest child's so far (ours run first, then the peer's)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, env=job_environment())
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return proc, cpu, after.ru_maxrss / 1024 ** 2
+
+
+def wall_time_to(steps: typing.Sequence[dict], load: float) -> float | None:
+    """Our wall time [s] up to the first converged step at load factor >= ``load`` (every attempt
+    before it included); None if no converged step gets there."""
+    total = 0.0
+    for step in steps:
+        total += float(step["wall_time_s"])
+        if step["converged"] and step["load"] >= load - 1e-9:
+            return total
+    return None
+
+
+def ours(name: str, extra: typing.Sequence[str], peer_load: float | None) -> Run:
+    """Our demo of case ``name`` with the options ``extra`` after the case's; with the wall time to
+    ``peer_load`` when given."""
+    case = CASES[name]
+    with tempfile.TemporaryDirectory() as out:
+        argv = [sys.executable, str(ROOT / "demos" / case.demo), *case.options, *extra, "--quiet", "--out", out]
+        proc, cpu, memory = run_measured(argv, ROOT)
+        summary_path = pathlib.Path(out) / "summary.json"
+        if not summary_path.exists():
+            raise RuntimeError(f"{' '.join(argv)} wrote no summary ({proc.returncode}):\n{proc.stderr[-3000:]}")
+        summary = json.loads(summary_path.read_text())
+    done = [s for s in summary["steps"] if s["converged"]]
+    economy = newton_economy(summary["steps"])
+    return Run(name, "dolfinx-sfvem", " ".join(extra), max((s["load"] for s in done), default=0.0),
+               economy["iterations"], economy["failed_share"], cpu, memory, summary["message"],
+               wall_time_to(summary["steps"], peer_load) if peer_load else None)
+
+
+#: dolfiny's progress lines: a load step's start, and SNES's converged reason
+_STEP = re.compile(r"Load step (\d+)")
+_REASON = re.compile(r"Nonlinear \S* ?solve (converged|did not converge) due to (\S+) iterations (\d+)")
+
+
+def parse_peer(stdout: str, steps: int) -> tuple[float, int, str]:
+    """(load factor reached, Newton iterations, the last reason) from a dolfiny demo's output: load
+    step k of ``steps`` fixed ones is at k / steps; a step counts when SNES says it converged."""
+    load, iterations, reason = 0.0, 0, ""
+    step = 0
+    for line in stdout.splitlines():
+        if (match := _STEP.search(line)) is not None:
+            step = int(match.group(1))
+        elif (match := _REASON.search(line)) is not None:
+            iterations += int(match.group(3))
+            reason = match.group(2)
+            if match.group(1) == "converged":
+                load = step / steps
+    return load, iterations, reason
+
+
+#: runs the script argv[1] as __main__, MPI's libraries loaded first where the dolfinx-solver-* wheel
+#: provides them (its ``dolfinx_solver`` must be imported before dolfinx)
+_RUN_PEER = ("import runpy, sys\ntry:\n    import dolfinx_solver  # noqa: F401\nexcept ImportError:\n    pass\n"
+             "sys.argv = sys.argv[1:]\nrunpy.run_path(sys.argv[0], run_name='__main__')")
+
+
+def peer(name: str, demos: pathlib.Path, python: str) -> Run:
+    """dolfiny's demo of case ``name`` from the folder ``demos``, run by ``python`` in a scratch
+    directory (the demo writes its outputs beside it)."""
+    case = CASES[name]
+    with tempfile.TemporaryDirectory() as scratch:
+        for script in demos.glob("*.py"):                      # the Hertz demo imports its mesh module
+            (pathlib.Path(scratch) / script.name).write_bytes(script.read_bytes())
+        proc, cpu, memory = run_measured([python, "-c", _RUN_PEER, case.peer_script], pathlib.Path(scratch))
+    load, iterations, reason = parse_peer(proc.stdout, case.peer_steps)
+    return Run(name, "dolfiny", "", load, iterations, None, cpu, memory, reason)
+
+
+def table(rows: list[dict]) -> str:
+    """The markdown table of all rows."""
+    header = ("case", "code", "options", "load reached", "Newton its", "in failed attempts", "CPU [s]",
+              "peak memory [GB]", "our wall time to the peer's load [s]", "date")
+
+    def fmt(value, spec):
+        return "-" if value is None else format(value, spec)
+    body = [(r["case"], r["code"], r["options"] or "defaults", f"{r['load']:.3f}", str(r["newton_iterations"]),
+             fmt(r["failed_share"], ".0%"), f"{r['cpu_s']:.0f}", f"{r['peak_memory_gb']:.2f}",
+             fmt(r.get("wall_to_peer_load_s"), ".0f"), r["date"]) for r in rows]
+    return "\n".join(markdown.table(header, body))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--cases", nargs="+", choices=sorted(CASES), default=sorted(CASES))
+    p.add_argument("--dolfiny", type=pathlib.Path, default=None, help="dolfiny's demo/tmc/3D folder")
+    p.add_argument("--dolfiny-python", default=None, help="a Python with dolfiny and DOLFINx 0.11")
+    p.add_argument("--ours-option", action="append", default=[],
+                   help="an option for our demos, as --ours-option=--alpha-r=100 (repeatable)")
+    p.add_argument("--results", type=pathlib.Path, default=ROOT / "bench")
+    args = p.parse_args()
+    if (args.dolfiny is None) != (args.dolfiny_python is None):
+        p.error("give --dolfiny and --dolfiny-python together")
+    path = args.results / "peer3d.json"
+    rows = json.loads(path.read_text()) if path.exists() else []
+    today = datetime.date.today().isoformat()
+    extra = [token for option in args.ours_option for token in option.split("=", 1)]
+    for name in args.cases:
+        runs = [peer(name, args.dolfiny, args.dolfiny_python)] if args.dolfiny is not None else []
+        peer_load = runs[0].load if runs else next((r["load"] for r in rows if (r["case"], r["code"]) == (name, "dolfiny")),
+                                                   None)
+        runs.append(ours(name, extra, peer_load))
+        for run in runs:
+            row = {**dataclasses.asdict(run), "date": today}
+            rows = [r for r in rows if (r["case"], r["code"], r["options"]) != (run.case, run.code, run.options)]
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    peers = {r["case"]: r["load"] for r in rows if r["code"] == "dolfiny"}
+    path.write_text(json.dumps(rows, indent=1) + "\n")
+    (args.results / "peer3d.md").write_text(
+        "# Our 3D benchmarks beside dolfiny's demos\n\n"
+        f"Written by `bench/peer3d.py` ({__doc__.splitlines()[0][:-1].lower()}). One process each; the "
+        f"peer's loads reached: {', '.join(f'{k} {v:.3f}' for k, v in sorted(peers.items())) or 'not measured'}.\n\n"
+        + table(sorted(rows, key=lambda r: (r["case"], r["code"], r["options"]))) + "\n")
+
+
+if __name__ == "__main__":
+    main()

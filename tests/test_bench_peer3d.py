@@ -1,0 +1,31 @@
+"""bench/peer3d.py's readings of a run, from outputs made up here (no solve)."""
+from __future__ import annotations
+
+import peer3d as bench
+
+#: the lines of a dolfiny demo that the bench reads (PETSc 3.25's converged-reason lines carry the prefix)
+PEER_OUTPUT = """Mesh: 7840 cells, 9225 nodes
+Load step 1, u_z: -0.100, u_y: 0.025
+  0 SNES Function norm 1.0e+00
+Nonlinear cbox_W_3D solve converged due to CONVERGED_FNORM_ABS iterations 7
+Load step 2, u_z: -0.200, u_y: 0.050
+Nonlinear cbox_W_3D solve converged due to CONVERGED_FNORM_RELATIVE iterations 9
+Load step 3, u_z: -0.300, u_y: 0.075
+Nonlinear cbox_W_3D solve did not converge due to DIVERGED_MAX_IT iterations 25
+Solver failed to converge, aborting.
+"""
+
+
+def test_the_peers_load_is_its_last_converged_step_and_every_iteration_counts():
+    assert bench.parse_peer(PEER_OUTPUT, 20) == (2 / 20, 7 + 9 + 25, "DIVERGED_MAX_IT")
+    assert bench.parse_peer("", 60) == (0.0, 0, "")
+
+
+def test_our_time_to_the_peers_load_includes_the_failed_attempts_before():
+    steps = [{"wall_time_s": 1.0, "converged": True, "load": 0.5},
+             {"wall_time_s": 2.0, "converged": False, "load": 1.0},
+             {"wall_time_s": 3.0, "converged": True, "load": 0.9},
+             {"wall_time_s": 4.0, "converged": True, "load": 1.0}]
+    assert bench.wall_time_to(steps, 0.85) == 6.0
+    assert bench.wall_time_to(steps, 1.0) == 10.0
+    assert bench.wall_time_to(steps[:2], 0.85) is None
