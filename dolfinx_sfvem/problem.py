@@ -32,7 +32,8 @@ from petsc4py import PETSc
 from dolfinx_sfvem.output import post
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh
-from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
+from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap
+from dolfinx_sfvem.physics.contact_checks import solid_boundary
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options

@@ -48,7 +48,7 @@ import scipy.sparse.csgraph
 import scipy.spatial
 
 from dolfinx_sfvem.physics.contact import (
-    FACING_COSINE, OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary, contact_pressure, smallest_gap)
+    FACING_COSINE, OVERLAP_TOLERANCE, BoundaryNodes, ContactPressure, Gap, contact_pressure, smallest_gap)
 from dolfinx_sfvem.mesh.polygon_mesh import edge_key
 
 #: the faces of DOLFINx's reference cells, vertices in cyclic order (oriented outwards afterwards)
@@ -131,7 +131,7 @@ def default_face_centre_keys(n_points: int) -> typing.Callable[[np.ndarray, np.n
     return lambda a, c: n_points + n_points * n_points + edge_key(a, c, n_points)
 
 
-class SolidSurface:
+class SolidSurface(BoundaryNodes):
     """The boundary surface of the solid bodies of a 3D mesh, as flat sub-triangles between its
     degree-2 nodes: :class:`.contact.SolidBoundary` in 3D (the same public interface).
 
@@ -243,9 +243,6 @@ class SolidSurface:
     def _in_node_order(values: np.ndarray) -> np.ndarray:
         """Nodal ``values`` as given: the nodes are numbered in :attr:`node_keys` order."""
         return np.asarray(values, dtype=float)
-
-    gather = SolidBoundary.gather
-    gap_of_state = SolidBoundary.gap_of_state
 
     def _body_triangles(self, body: int) -> np.ndarray:
         return self.triangles[self.body_offsets[body]:self.body_offsets[body + 1]]
