@@ -37,7 +37,8 @@ from dolfinx_sfvem.physics.contact_checks import solid_boundary
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options
-from dolfinx_sfvem.physics.loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
+from dolfinx_sfvem.physics.bound_load import BoundLoad
+from dolfinx_sfvem.physics.loads import BodyForce, CavityPressure, Load, PointForce, Pressure, Traction
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 from dolfinx_sfvem.mesh.refine import Refinement, refine_mesh
