@@ -39,9 +39,8 @@ from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options
 from dolfinx_sfvem.physics.bound_load import BoundLoad
 from dolfinx_sfvem.physics.loads import BodyForce, CavityPressure, Load, PointForce, Pressure, Traction
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.mesh.refine import Refinement, refine_mesh
 from dolfinx_sfvem.output.run_summary import Observer, Result
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX
 from dolfinx_sfvem.discretizations.state_transfer import transfer_state
@@ -575,7 +574,7 @@ class ContactProblem:
         if self.gdim == 3:
             raise ValueError("refine: a 3D problem is not refined in place; refine the octree "
                              "(sf.meshes.octree_box(...).refine(where, levels)) and build the problem on it")
-        refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
+        refinement = self.mesh.refine(where, levels, tags=tags, max_l=max_l)
         self.move_to(refinement)
         return refinement
 

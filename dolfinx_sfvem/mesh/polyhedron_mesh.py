@@ -48,7 +48,8 @@ from dolfinx_sfvem.mesh.cell_mesh import CellMesh, facet_normals, reference_face
 from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon import RTOL, point_location, self_intersection
-from dolfinx_sfvem.mesh.polygon_mesh import as_points, concatenated_ranges, segment_owner
+from dolfinx_sfvem.mesh.polygon_mesh import as_points
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, segment_owner
 
 #: default relative planarity tolerance of a face (of its diameter)
 PLANAR_RTOL = 1e-8

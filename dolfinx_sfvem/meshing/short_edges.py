@@ -37,7 +37,7 @@ import numpy.typing as npt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, segment_owner
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, segment_owner
 from dolfinx_sfvem.mesh.polyhedron_mesh import _relative_orientation, _vertex_sets
 
 #: a vertex farther than this times its face's size from the face's plane is cut off (a tenth of

@@ -49,7 +49,7 @@ import scipy.spatial
 
 from dolfinx_sfvem.physics.contact import (
     FACING_COSINE, OVERLAP_TOLERANCE, BoundaryNodes, ContactPressure, Gap, contact_pressure, smallest_gap)
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key
+from dolfinx_sfvem.mesh.csr import edge_key
 
 #: the faces of DOLFINx's reference cells, vertices in cyclic order (oriented outwards afterwards)
 CELL_FACES = {"tetrahedron": np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]),
