@@ -37,6 +37,7 @@ from dolfinx_sfvem.physics.contact_checks import solid_boundary
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options
+from dolfinx_sfvem.path_following.load_path import LoadPath
 from dolfinx_sfvem.physics.bound_load import BoundLoad
 from dolfinx_sfvem.physics.loads import BodyForce, CavityPressure, Load, PointForce, Pressure, Traction
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
@@ -686,7 +687,6 @@ class ContactProblem:
         elif steps is not None or min_increment is not None:
             raise ValueError("steps and min_increment belong to the default load stepping; with a control "
                              "give them to the control")
-        from dolfinx_sfvem.path_following.load_path import LoadPath        # the driver of a problem's path (it imports this module)
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,

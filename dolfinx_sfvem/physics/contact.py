@@ -174,9 +174,12 @@ class BoundaryNodes(abc.ABC):
     ----------
     node_keys : (n_nodes,) int64
         Sorted discretization keys of the boundary nodes.
+    tolerance : float
+        Overlap tolerance as a fraction of the local mesh size.
     """
 
     node_keys: np.ndarray
+    tolerance: float
 
     @abc.abstractmethod
     def gap(self, u: np.ndarray) -> Gap:
