@@ -2,8 +2,8 @@
 
 A library below Python (an MPI runtime, a mesher, a compiler driver) may end the process by
 calling C's ``exit()`` itself: Python then prints no traceback, runs none of its ``atexit``
-handlers, and a run that was started with ``--quiet`` ends with its exit status and nothing else
-(issue 30: runs that "exited with code 1 before printing anything"). :func:`arm` registers a C
+handlers, and a run that was started with ``--quiet`` ends with its exit status and nothing
+else. :func:`arm` registers a C
 ``atexit`` handler that, unless Python is shutting down normally, writes to stderr that the
 process is ending inside a library call, the Python stack at that moment (``faulthandler``) and
 the run's last reported phase (:func:`phase`), so that such an end always says where it

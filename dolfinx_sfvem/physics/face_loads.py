@@ -252,8 +252,8 @@ class BoundFacePressure(BoundLoad):
         """Whether the load stiffness is symmetric once the unknowns ``constrained`` (local mask
         (n_local_dofs,), 3 per node) are eliminated (collective): a dead pressure always; a
         follower one when the boundary term ∮ p (δu × Δu) · dx of its stiffness's skew part
-        vanishes on every edge of the loaded surface's boundary curve (none on a closed surface;
-        docs/notes/2026-11-26-follower-pressure-symmetry.md). On an edge it does when the
+        vanishes on every edge of the loaded surface's boundary curve (none on a closed
+        surface). On an edge it does when the
         components constrained at all of its nodes are
 
         - two or three: δu and Δu are both along the free axis (or 0), δu × Δu = 0;

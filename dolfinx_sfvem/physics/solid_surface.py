@@ -127,7 +127,8 @@ def surface_faces(points: np.ndarray, cells: np.ndarray, tags: np.ndarray, cell_
 
 
 def default_face_centre_keys(n_points: int) -> typing.Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """Keys of Q2 face-centre nodes by 3D-INTERFACES.md: ``n + n² + edge_key(a, c, n)``."""
+    """Keys of the Q2 face-centre nodes of a mesh with ``n_points`` points, from a face's
+    diagonal (a, c): ``n + n² + edge_key(a, c, n)``, after the point and edge-midpoint keys."""
     return lambda a, c: n_points + n_points * n_points + edge_key(a, c, n_points)
 
 
@@ -149,8 +150,8 @@ class SolidSurface(BoundaryNodes):
         Overlap tolerance as a fraction of the longest surface edge at a node.
     face_centre_keys
         ``face_centre_keys(a, c)`` -> keys of the Q2 face-centre nodes of the quadrilateral faces
-        with diagonal (a, c), a the face's smallest vertex (hexahedra only; default: the keys of
-        3D-INTERFACES.md).
+        with diagonal (a, c), a the face's smallest vertex (hexahedra only; default:
+        :func:`default_face_centre_keys`).
 
     Attributes
     ----------
