@@ -187,9 +187,6 @@ class FaceForms:
         """The form's value over all ranks (collective)."""
         return float(self.disc.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
 
-    def compile(self, form: ufl.Form) -> dolfinx.fem.Form:
-        return compiled_form(form)
-
     def swept_volume(self) -> ufl.Form:
         """The volume swept into the body by the faces along straight paths (module docstring)."""
         return -ufl.dot(self.u, mean_cofactor(ufl.grad(self.u)) * self.N) * self.ds
