@@ -42,7 +42,7 @@ import typing
 
 import ffcx.codegeneration.jit
 
-from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.output import run_phase
 from dolfinx_sfvem.output.logs import quiet_compilers, say
 
 log = logging.getLogger(__name__)
@@ -61,7 +61,7 @@ def compiling() -> typing.Iterator[None]:
     """Context of every JIT compile of the package: the compilers' chatter kept off the console
     (:func:`~dolfinx_sfvem.output.logs.quiet_compilers`) and each rank's compile under the inter-process
     lock of its cache directory (:func:`locked_compiles`)."""
-    with quiet_compilers(), locked_compiles(), last_word.in_phase("compiling forms (FFCx and the C compiler)"):
+    with quiet_compilers(), locked_compiles(), run_phase.in_phase("compiling forms (FFCx and the C compiler)"):
         yield
 
 

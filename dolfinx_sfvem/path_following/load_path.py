@@ -29,7 +29,7 @@ from dataclasses import asdict
 import numpy as np
 from petsc4py import PETSc
 
-from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.output import run_phase
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity, ProblemState
 from dolfinx_sfvem.physics.contact import BoundaryNodes, ContactPressure, Gap
@@ -200,7 +200,7 @@ class LoadPath:
                                                   f"({rec.failure})")
                             self._undo_adaptation(*undo)
                             undo, adapt, refined = None, None, -1
-                        last_word.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
+                        run_phase.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
                         if refined or stop.requested(p.comm):
                             break
                     solver.destroy()
