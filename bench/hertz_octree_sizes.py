@@ -26,7 +26,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 from dolfinx_sfvem.meshing.benchmarks3d import _cell_edges_and_faces, hertz3d, hertz3d_octree  # noqa: E402
 from dolfinx_sfvem.meshes import SOLID  # noqa: E402
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, next_entries, segment_owner  # noqa: E402
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, next_entries, segment_owner  # noqa: E402
 from dolfinx_sfvem.discretizations.polyhedral_space import n_unknowns  # noqa: E402
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh  # noqa: E402
 

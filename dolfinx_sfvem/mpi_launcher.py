@@ -18,7 +18,7 @@ prints the command prefix, e.g. ``/usr/bin/mpiexec -n 2 --allow-run-as-root --ov
 A program started from a process that has MPI initialised (a test run, a driver script, a rank
 of an ``mpirun`` job) must get :func:`job_environment`: otherwise it inherits the variables by
 which the parent's MPI knows its own job, and its ``MPI_Init`` joins that job under the parent's
-identity instead of starting its own (docs/notes/2026-11-26-silent-exits.md).
+identity instead of starting its own (the child then hangs or exits without a word).
 """
 from __future__ import annotations
 

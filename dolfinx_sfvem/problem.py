@@ -32,14 +32,16 @@ from petsc4py import PETSc
 from dolfinx_sfvem.output import post
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh
-from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap, solid_boundary
+from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap
+from dolfinx_sfvem.physics.contact_checks import solid_boundary
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.linear_solvers import linear_solver_options
-from dolfinx_sfvem.physics.loads import BodyForce, BoundLoad, CavityPressure, Load, PointForce, Pressure, Traction
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.path_following.load_path import LoadPath
+from dolfinx_sfvem.physics.bound_load import BoundLoad
+from dolfinx_sfvem.physics.loads import BodyForce, CavityPressure, Load, PointForce, Pressure, Traction
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.mesh.refine import Refinement, refine_mesh
 from dolfinx_sfvem.output.run_summary import Observer, Result
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX
 from dolfinx_sfvem.discretizations.state_transfer import transfer_state
@@ -573,7 +575,7 @@ class ContactProblem:
         if self.gdim == 3:
             raise ValueError("refine: a 3D problem is not refined in place; refine the octree "
                              "(sf.meshes.octree_box(...).refine(where, levels)) and build the problem on it")
-        refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
+        refinement = self.mesh.refine(where, levels, tags=tags, max_l=max_l)
         self.move_to(refinement)
         return refinement
 
@@ -685,7 +687,6 @@ class ContactProblem:
         elif steps is not None or min_increment is not None:
             raise ValueError("steps and min_increment belong to the default load stepping; with a control "
                              "give them to the control")
-        from dolfinx_sfvem.path_following.load_path import LoadPath        # the driver of a problem's path (it imports this module)
         options = {**self.petsc_options, **{k.lstrip("-"): v for k, v in (petsc_options or {}).items()}}
         return LoadPath(self, control, out, petsc_options=options, observers=observers,
                         raise_on_failure=raise_on_failure, resume=resume, from_current_state=from_current_state,

@@ -228,14 +228,14 @@ def test_a_library_exit_still_leaves_a_message(tmp_path, status):
     script.write_text(f"""import ctypes, sys
 sys.path.insert(0, {str(DEMOS)!r})
 import _common
-from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.output import run_phase
 
 def deep_inside_a_library():
     ctypes.CDLL(None).exit({status})
 
 def main(argv):
     print("started", flush=True)
-    last_word.phase("the load step after load 0.25 (2 converged steps)")
+    run_phase.phase("the load step after load 0.25 (2 converged steps)")
     deep_inside_a_library()
     return 0
 

@@ -10,7 +10,7 @@ import pytest
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.meshing.benchmarks3d import HERTZ3D_R, SPHERE, hertz3d_octree
 from dolfinx_sfvem.meshing.octree_tetrahedra import _square_of_triangles, top_squares
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, segment_owner
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, segment_owner
 
 #: coarse: cubes of 0.25 near the contact, 0.5 far away
 H_CONTACT, H_FAR, GAP = 0.25, 0.5, 0.1

@@ -6,7 +6,7 @@ import pytest
 from mpi4py import MPI
 
 from dolfinx_sfvem.output.pictures3d import WINDOW_SIZE, offscreen_unavailable, write_pictures_3d
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key, segment_owner
+from dolfinx_sfvem.mesh.csr import edge_key, segment_owner
 from dolfinx_sfvem.physics.solid_surface import SolidSurface
 
 plt = pytest.importorskip("matplotlib.pyplot")

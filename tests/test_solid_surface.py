@@ -7,8 +7,10 @@ import time
 import numpy as np
 import pytest
 
-from dolfinx_sfvem.physics.contact import SolidBoundary, solid_boundary
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
+from dolfinx_sfvem.physics.contact import SolidBoundary
+from dolfinx_sfvem.physics.contact_checks import solid_boundary
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.physics.solid_surface import SolidSurface
 
 CELLS = ["hexahedron", "tetrahedron"]

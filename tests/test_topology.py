@@ -9,7 +9,8 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, next_entries, previous_entries
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.csr import next_entries, previous_entries
 
 # unit square 0-1-2-3 left of two rectangles [1, 2] x [0, 0.5] and [1, 2] x [0.5, 1]: point 4 =
 # (1, 0.5) is a hanging node of the square (inserted into its vertex list); point 8 is unused

@@ -7,7 +7,7 @@ file for ``timeout`` seconds (DOLFINx's default: 10) and then raises "JIT compil
 probably due to a failed previous compile". So processes started together on an empty cache
 (a parameter sweep, several ``mpirun`` jobs) die whenever one waits for another's compile of
 the same form that takes longer than that, which a loaded machine's compile of a tangent form
-easily does (docs/notes/2026-11-26-concurrent-starts.md).
+easily does.
 
 :func:`compiler_lock` holds an exclusive ``flock`` on ``<cache_dir>/dolfinx_sfvem.lock`` around a
 compile, so that FFCx's protocol never waits: a process finds either no ``.c`` file (and compiles)
@@ -25,7 +25,7 @@ an MPI job DOLFINx compiles on rank 0 and then lets the other ranks load the mod
 ``mpi_jit_decorator``); that load is a compile of its own when a rank's form has another signature
 than rank 0's, which UFL gives the FEM's residual and tangent forms in some processes (the same
 form, its terms in another order: the module names differ between processes and between the ranks
-of one job, docs/notes/2026-11-26-concurrent-starts.md). A lock held across DOLFINx's collective
+of one job). A lock held across DOLFINx's collective
 instead would deadlock (a rank holding it while rank 0 waits for it).
 """
 from __future__ import annotations
@@ -42,7 +42,7 @@ import typing
 
 import ffcx.codegeneration.jit
 
-from dolfinx_sfvem.output import last_word
+from dolfinx_sfvem.output import run_phase
 from dolfinx_sfvem.output.logs import quiet_compilers, say
 
 log = logging.getLogger(__name__)
@@ -61,7 +61,7 @@ def compiling() -> typing.Iterator[None]:
     """Context of every JIT compile of the package: the compilers' chatter kept off the console
     (:func:`~dolfinx_sfvem.output.logs.quiet_compilers`) and each rank's compile under the inter-process
     lock of its cache directory (:func:`locked_compiles`)."""
-    with quiet_compilers(), locked_compiles(), last_word.in_phase("compiling forms (FFCx and the C compiler)"):
+    with quiet_compilers(), locked_compiles(), run_phase.in_phase("compiling forms (FFCx and the C compiler)"):
         yield
 
 

@@ -137,7 +137,7 @@ def linear_elastic_stiffness_3d(points: npt.ArrayLike, faces, young: float, pois
     points : (n_v, 3) float
         Vertices.
     faces : sequence of int arrays
-        Cyclic faces with outward normals (POLY-INTERFACES.md).
+        Cyclic faces with outward normals (:mod:`~dolfinx_sfvem.mesh.polyhedron`).
     young, poisson : float
         Young's modulus (> 0) and Poisson's ratio (in (-1, 0.5)).
     l : int, optional

@@ -275,7 +275,7 @@ def hyperelastic_polyhedron(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike
     Parameters
     ----------
     points, faces
-        The polyhedron (POLY-INTERFACES.md: vertices (n_v, 3), outward cyclic faces).
+        The polyhedron (:mod:`~dolfinx_sfvem.mesh.polyhedron`: vertices (n_v, 3), outward cyclic faces).
     energy
         Psi(F, G); its kernels are compiled in 3D (FFCx, once per energy structure).
     params

@@ -47,7 +47,8 @@ import dolfinx.fem
 from dolfinx_sfvem import _compat
 from dolfinx_sfvem.discretizations.assemble import coo_pattern
 from dolfinx_sfvem.output.logs import say
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, coordinate_bisection, next_entries, segment_owner
+from dolfinx_sfvem.mesh.polygon_mesh import coordinate_bisection
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, next_entries, segment_owner
 from dolfinx_sfvem.discretizations.monomials3d import exponents3
 from dolfinx_sfvem.mesh.polyhedron import tetrahedron_rule
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials

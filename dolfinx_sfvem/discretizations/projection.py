@@ -751,3 +751,21 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
         validate_polygon(xy, e)
         raise _rank_error(e, xy, int(status[j]), int(l_chosen[j]), nullities[j], l is not None, l_max)
     return Projections(l_chosen, centroid, diameter, area, Pi_nabla_offsets, Pi_nabla, Pi_m_offsets, Pi_m)
+
+
+def without_sufficient_order(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64],
+                             vertices: npt.NDArray[np.int64], polygons: npt.NDArray[np.int64],
+                             l_from: int, l_to: int) -> npt.NDArray[np.bool_]:
+    """Mask (polygons.size,) bool: no projection order l_from <= l <= l_to passes the rank check
+    of :func:`select_l` (tolerance :data:`RANK_TOL`) for the polygon, or it is not a valid
+    counter-clockwise polygon.
+
+    ``points`` (n_points, 2) float64, ``offsets`` (n_poly + 1,) int64 and ``vertices`` int64 as
+    in :func:`build_projections`; ``polygons`` (n,) int64 the polygons checked.
+    """
+    n = polygons.size
+    nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
+    status = _build_all(points, offsets, vertices, polygons, np.full(n, l_from, dtype=np.int64),
+                        np.full(n, l_to, dtype=np.int64), RANK_TOL,
+                        np.concatenate([[0], np.cumsum(6 * nd)]).astype(np.int64))[0]
+    return status != _OK

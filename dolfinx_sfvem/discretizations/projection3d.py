@@ -1,7 +1,7 @@
 """Projections of the order-2 SFVEM on one polyhedron: Pi^nabla_2 and Pi^0_l nabla (docs/method.md §8).
 
-Degrees of freedom (POLY-INTERFACES.md)
----------------------------------------
+Degrees of freedom
+------------------
 Polyhedron E with n_v vertices, n_e edges (:func:`~dolfinx_sfvem.mesh.polyhedron.polyhedron_edges`:
 sorted pairs, lexicographic), n_f outward faces; per scalar component the n_d = n_v + n_e + n_f + 1
 DOFs
@@ -654,7 +654,7 @@ def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, fac
                          l_max: int = L_MAX) -> Projections3D:
     """Pi^nabla_2 and Pi^0_l nabla of the cells of a polyhedral mesh (one compiled loop).
 
-    The mesh arrays are those of ``PolyhedronMesh`` (POLY-INTERFACES.md): each face stored once
+    The mesh arrays are those of :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`: each face stored once
     with global vertex numbers, the cells as CSR of faces with a sign per (cell, face), +1 when
     the stored normal points out of the cell. The mesh is assumed valid (its constructor checks
     it); what only the element can tell is checked here.

@@ -13,7 +13,7 @@ pointwise energy kernels per assembly, so the rules are made small:
   (Carathéodory–Tchakaloff compression): a subset of the sub-triangle points with new
   positive weights, exact for the same degree (:func:`compressed_polygon_quadrature`).
   In the medium this changes the answer by the quadrature error of a non-polynomial
-  integrand, far below the discretization error (docs/notes/2026-11-23-performance-rounds.md).
+  integrand, far below the discretization error.
 """
 from __future__ import annotations
 

@@ -30,7 +30,8 @@ from dolfinx_sfvem import _compat
 from dolfinx_sfvem.output.logs import say
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.discretizations.node_keys import mean_keys, midpoint_keys
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, concatenated_ranges, edge_key
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, edge_key
 from dolfinx_sfvem.discretizations.projection import Projections, build_projections
 from dolfinx_sfvem.discretizations.quadrature import compressed_polygon_quadrature, polygon_quadrature
 

@@ -17,7 +17,8 @@ import numpy.typing as npt
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.discretizations.node_keys import mean_keys, midpoint_keys, n_keys
 from dolfinx_sfvem.mesh.polygon import point_segment_distance
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement, concatenated_ranges
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
+from dolfinx_sfvem.mesh.csr import concatenated_ranges
 from dolfinx_sfvem.discretizations.projection import build_projections
 from dolfinx_sfvem.discretizations.quadrature import polygon_quadrature
 
@@ -105,7 +106,7 @@ def transfer_state(refinement: Refinement, values: npt.NDArray[np.float64]) -> n
     Parameters
     ----------
     refinement
-        From :func:`~dolfinx_sfvem.mesh.refine.refine_mesh`.
+        From :meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`.
     values : (n_keys_coarse, 2) float64
         Displacement at every node key of the coarse mesh (:mod:`~dolfinx_sfvem.discretizations.node_keys`;
         rows of unused points are ignored).

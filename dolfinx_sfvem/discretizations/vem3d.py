@@ -35,7 +35,7 @@ from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels
 from dolfinx_sfvem.discretizations.discretization import AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials
 from dolfinx_sfvem.physics.enclosed_volume import EnclosedVolume
 from dolfinx_sfvem.physics.energy import Energy, VolumeWork
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.discretizations.polyhedral_space import FACE, VERTEX, PolyhedralSpace, _TET_EDGES
 from dolfinx_sfvem.mesh.polyhedron import energy_quadrature
 from dolfinx_sfvem.discretizations.polyhedron_loops import (

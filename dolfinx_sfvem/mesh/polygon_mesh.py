@@ -39,6 +39,8 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from dolfinx_sfvem import _compat
+from dolfinx_sfvem.mesh.csr import edge_key, next_entries, previous_entries, segment_owner
+from dolfinx_sfvem.mesh.refine import select_polygons, split_level
 from dolfinx_sfvem.mesh.polygon import (
     FAILED, FAN, RTOL, centroid, diameter, point_location, point_segment_distance, ear_clipping, segment_distance,
     self_intersection, signed_area, sub_triangulation)
@@ -409,43 +411,6 @@ def _locate(x, points, offsets, vertices, tol):
                     found[i] = k
                     break
     return found
-
-
-# --------------------------------------------------------------------------- CSR topology
-def segment_owner(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Segment index of every entry of a CSR array with these offsets, (offsets[-1],)."""
-    return np.repeat(np.arange(offsets.size - 1, dtype=np.int64), np.diff(offsets))
-
-
-def concatenated_ranges(starts: npt.NDArray[np.int64], lengths: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Concatenation of ``arange(s, s + n)`` over the pairs of ``starts`` and ``lengths`` (k,):
-    (lengths.sum(),) int64. With CSR offsets: the entries of a set of polygons."""
-    total = int(lengths.sum())
-    shift = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
-    return (shift + np.arange(total)).astype(np.int64)
-
-
-def next_entries(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Position (offsets[-1],) int64 of the next vertex of the same polygon, counter-clockwise,
-    for every entry of a CSR vertex array with these offsets (the last vertex is followed by the first)."""
-    nxt = np.arange(1, offsets[-1] + 1, dtype=np.int64)
-    nxt[offsets[1:] - 1] = offsets[:-1]
-    return nxt
-
-
-def previous_entries(offsets: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Position (offsets[-1],) int64 of the previous vertex of the same polygon (clockwise) for
-    every entry of a CSR vertex array with these offsets: the inverse of :func:`next_entries`."""
-    previous = np.arange(-1, offsets[-1] - 1, dtype=np.int64)
-    previous[offsets[:-1]] = offsets[1:] - 1
-    return previous
-
-
-def edge_key(a: npt.ArrayLike, b: npt.ArrayLike, n_points: int) -> npt.NDArray[np.int64]:
-    """Key of the undirected edges between points ``a`` and ``b`` (same shape) of a mesh with
-    ``n_points`` points: ``min(a, b) * n_points + max(a, b)``, the same for both directions,
-    ordered as the pairs (lower, higher end point)."""
-    return np.minimum(a, b) * n_points + np.maximum(a, b)
 
 
 def coordinate_bisection(centroids: npt.NDArray[np.float64], n_parts: int) -> npt.NDArray[np.int32]:
@@ -859,28 +824,50 @@ class PolygonMesh:
 
     def refine(self, where: Callable[[np.ndarray], np.ndarray] | npt.ArrayLike | None = None, levels: int = 1, *,
                tags: Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
-        """Split the selected polygons ``levels`` times into quadrilaterals (neighbours that are
-        not refined gain hanging nodes); see :func:`dolfinx_sfvem.mesh.refine.refine_mesh`.
+        """Split the selected polygons ``levels`` times into quadrilaterals (the pieces of
+        :mod:`~dolfinx_sfvem.mesh.refine`); neighbours that are not refined gain hanging nodes.
 
         Parameters
         ----------
         where
             A marker ``f(x) -> bool (n,)`` of the polygon centroids ``x`` (2, n), a boolean mask
-            (n_polygons,) or polygon indices.
+            (n_polygons,) or polygon indices (:func:`~dolfinx_sfvem.mesh.refine.select_polygons`).
         levels
-            Number of splits (>= 1).
+            Number of splits (>= 1); level k + 1 splits the children of level k, so a selected
+            polygon ends up as about (number of vertices) x 4^(levels - 1) polygons.
         tags
             Region tags or names (combined with ``where`` by "and").
         max_l
-            Neighbours whose hanging nodes would need a projection order above this are split too.
+            A neighbour whose new hanging nodes would need a projection order l > ``max_l`` (the
+            rank check of docs/method.md §3; many hanging nodes on one side) is split too, at that
+            level, until no polygon needs more (closure); an integer in [3, 10].
 
         Returns
         -------
         Refinement
-            ``.mesh`` the refined mesh, ``.parent`` the polygon of this mesh holding each new one.
+            ``.mesh`` the refined mesh (region tags and names kept), ``.parent`` the polygon of
+            this mesh holding each new one.
+
+        Raises
+        ------
+        ValueError
+            For ``levels`` or ``max_l`` out of range and for a selection that
+            :func:`~dolfinx_sfvem.mesh.refine.select_polygons` refuses.
         """
-        from dolfinx_sfvem.mesh.refine import refine_mesh      # here, not at the top: refine.py builds PolygonMeshes
-        return refine_mesh(self, where, levels, tags=tags, max_l=max_l)
+        if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 1:
+            raise ValueError(f"refine: levels must be an integer >= 1, got {levels!r}")
+        if isinstance(max_l, bool) or not isinstance(max_l, (int, np.integer)) or not 3 <= max_l <= 10:
+            raise ValueError(f"refine: max_l must be an integer in [3, 10], got {max_l!r}")
+        chosen = select_polygons(self, where, tags)
+        current, ancestor = self, np.arange(self.n_polygons, dtype=np.int64)
+        for _ in range(int(levels)):
+            points, offsets, vertices, parent, is_child = split_level(current, chosen, int(max_l))
+            refined = PolygonMesh(points, np.split(vertices, offsets[1:-1]), current.tags[parent],
+                                  insert_hanging_nodes=False)
+            refined.region_names = dict(self.region_names)
+            current, ancestor, chosen = refined, ancestor[parent], is_child
+        split = np.bincount(ancestor, minlength=self.n_polygons) > 1
+        return Refinement(self, current, ancestor, split, int(levels))
 
     # ----------------------------------------------------------------------- distribution
     def partition(self, n_parts: int) -> npt.NDArray[np.int32]:
@@ -917,7 +904,7 @@ class PolygonMesh:
 @dataclass(frozen=True)
 class Refinement:
     """A refined mesh and how it derives from the mesh it was cut from (made by
-    :func:`~dolfinx_sfvem.mesh.refine.refine_mesh`).
+    :meth:`PolygonMesh.refine`).
 
     Attributes
     ----------
@@ -929,7 +916,7 @@ class Refinement:
         The polygon of ``coarse`` containing each polygon of ``mesh``.
     selected : (coarse.n_polygons,) bool
         The polygons of ``coarse`` that were split: the selection and the neighbours split to keep
-        the projection order bounded (:func:`~dolfinx_sfvem.mesh.refine.refine_mesh`); the others at
+        the projection order bounded (:meth:`PolygonMesh.refine`); the others at
         most gained hanging nodes.
     levels : int
         Times the selected polygons (and then their children) were split.

@@ -2,7 +2,8 @@
 
 A polyhedron is ``points`` (n_v, 3) and ``faces``, a list of local vertex-index arrays, each a
 planar polygon in cyclic order whose right-hand-rule normal points out of the polyhedron
-(POLY-INTERFACES.md). Faces may have collinear vertices (hanging vertices of an octree).
+(:meth:`PolyhedronMesh.polyhedron <dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh.polyhedron>`
+gives a cell so). Faces may have collinear vertices (hanging vertices of an octree).
 
 Every face gets an orthonormal frame (t_1, t_2, n): n the outward unit normal (Newell's area
 vector), t_1 along its first side, t_2 = n x t_1, so that its vertices, written in the plane
@@ -449,7 +450,7 @@ def energy_quadrature(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike], deg
     volume that of its bounding box: octree cells, whatever their hanging vertices), else the
     sub-tetrahedral rule; ``"compressed"`` as "auto", with the sub-tetrahedral rule compressed to
     at most dim P_degree positive weights (:func:`dolfinx_sfvem.discretizations.quadrature.compress_rule`;
-    seconds per cell at degree 10: docs/notes/2026-11-26-sfvem-3d-hyperelastic.md).
+    the compression takes seconds per cell at degree 10).
 
     Returns
     -------

@@ -6,8 +6,8 @@ stored face's normal, by the right-hand rule, points out of the cell, -1 if into
 region tag per cell. Faces are planar polygons and may have collinear vertices: the hanging
 vertices of an octree (a coarse cube's face split into the faces of its finer neighbours, a
 midpoint on a face's edge). :meth:`PolyhedronMesh.polyhedron` gives one cell as the element's
-input (docs: POLY-INTERFACES, "One polyhedron"): its points and its faces in local indices,
-every face oriented out of the cell.
+input (the ``points, faces`` of :mod:`~dolfinx_sfvem.mesh.polyhedron`): its points and its
+faces in local indices, every face oriented out of the cell.
 
 Validation (construction), each failure a ``ValueError`` naming the cell and the defect:
 
@@ -33,8 +33,7 @@ Tolerance: ``tol = RTOL * d`` with ``d`` the diagonal of the bounding box of the
 (``RTOL`` of :mod:`dolfinx_sfvem.mesh.polygon`); a face of area at most ``tol`` times its diameter, a
 cell of volume at most ``tol`` times its squared diameter are degenerate.
 
-The face and cell loops are compiled (numba): validating 10^5 cells takes 1-2 s
-(docs/notes/2026-11-26-polyhedral-meshes.md).
+The face and cell loops are compiled (numba): validating 10^5 cells takes 1-2 s.
 """
 from __future__ import annotations
 
@@ -48,7 +47,8 @@ from dolfinx_sfvem.mesh.cell_mesh import CellMesh, facet_normals, reference_face
 from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon import RTOL, point_location, self_intersection
-from dolfinx_sfvem.mesh.polygon_mesh import as_points, concatenated_ranges, segment_owner
+from dolfinx_sfvem.mesh.polygon_mesh import as_points
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, segment_owner
 
 #: default relative planarity tolerance of a face (of its diameter)
 PLANAR_RTOL = 1e-8

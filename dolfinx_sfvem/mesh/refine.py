@@ -11,8 +11,11 @@ thinner polygons). A polygon that is not refined but shares a split edge gets th
 midpoint inserted into its vertex list: a hanging node. Points keep their index: refinement only
 appends points.
 
-This is geometry and topology only; carrying an SFVEM state over to the refined mesh is
-:func:`dolfinx_sfvem.discretizations.state_transfer.transfer_state`.
+This module works on the arrays of a mesh (:class:`Polygons`, what it reads of a
+:class:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh`) and builds none:
+:meth:`PolygonMesh.refine <dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine>` makes the mesh of
+each level from :func:`split_level`. This is geometry and topology only; carrying an SFVEM state
+over to the refined mesh is :func:`dolfinx_sfvem.discretizations.state_transfer.transfer_state`.
 """
 from __future__ import annotations
 
@@ -21,17 +24,39 @@ import typing
 import numpy as np
 import numpy.typing as npt
 
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, edge_key, next_entries, previous_entries
 from dolfinx_sfvem.mesh.polygon import RTOL
-from dolfinx_sfvem.mesh.polygon_mesh import (
-    PolygonMesh, Refinement, concatenated_ranges, edge_key, next_entries, previous_entries)
-from dolfinx_sfvem.discretizations.projection import RANK_TOL, _build_all
+from dolfinx_sfvem.discretizations.projection import without_sufficient_order
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Selection = typing.Union[Marker, npt.ArrayLike, None]
 
 
+class Sides(typing.Protocol):
+    """The sides of a polygon mesh: one per vertex entry, from ``start`` to ``end`` (n_sides,) int64."""
+    start: npt.NDArray[np.int64]
+    end: npt.NDArray[np.int64]
+
+
+class Polygons(typing.Protocol):
+    """What the refinement reads of a :class:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh`."""
+    n_points: int
+    n_polygons: int
+    points: npt.NDArray[np.float64]                 # (n_points, 2)
+    offsets: npt.NDArray[np.int64]                  # (n_polygons + 1,) CSR offsets of ``vertices``
+    vertices: npt.NDArray[np.int64]                 # counter-clockwise vertex lists
+    tags: npt.NDArray[np.int32]                     # (n_polygons,) region tags
+    region_names: dict[str, int]
+    centroids: npt.NDArray[np.float64]              # (n_polygons, 2)
+    interior_node: npt.NDArray[np.int64]            # (n_polygons, 2): equal entries for a fan sub-triangulation
+    nodes: npt.NDArray[np.float64]                  # points, then the fan centres
+    triangles: npt.NDArray[np.int64]                # (n_triangles, 3) sub-triangles
+    triangle_offsets: npt.NDArray[np.int64]         # (n_polygons + 1,) CSR offsets of ``triangles``
+    sides: Sides
+
+
 # --------------------------------------------------------------------------- selection
-def select_polygons(mesh: PolygonMesh, where: Selection = None,
+def select_polygons(mesh: Polygons, where: Selection = None,
                     tags: typing.Iterable[int | str] | None = None) -> npt.NDArray[np.bool_]:
     """Mask (n_polygons,) of the polygons chosen by ``where`` and ``tags`` (both: the intersection).
 
@@ -84,7 +109,7 @@ def select_polygons(mesh: PolygonMesh, where: Selection = None,
     return chosen
 
 
-def _region_tags(mesh: PolygonMesh, tags: typing.Iterable[int | str]) -> npt.NDArray[np.int64]:
+def _region_tags(mesh: Polygons, tags: typing.Iterable[int | str]) -> npt.NDArray[np.int64]:
     """Tags from tags or region names; ValueError for one that no polygon carries."""
     if isinstance(tags, (int, str, np.integer)):
         tags = [tags]
@@ -102,7 +127,7 @@ def _region_tags(mesh: PolygonMesh, tags: typing.Iterable[int | str]) -> npt.NDA
 
 
 # --------------------------------------------------------------------------- splitting
-def _pieces(mesh: PolygonMesh, chosen: npt.NDArray[np.int64]):
+def _pieces(mesh: Polygons, chosen: npt.NDArray[np.int64]):
     """Star-shaped pieces of the chosen polygons: (offsets, vertices, centres (n, 2), polygon (n,)).
 
     A polygon with a fan sub-triangulation is one piece around its fan centre; any other is
@@ -122,7 +147,7 @@ def _pieces(mesh: PolygonMesh, chosen: npt.NDArray[np.int64]):
     return offsets, vertices, centres, polygon
 
 
-def _split_once(mesh: PolygonMesh, selected: npt.NDArray[np.bool_]
+def _split_once(mesh: Polygons, selected: npt.NDArray[np.bool_]
                 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64],
                            npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
     """One refinement level: (points, offsets, vertices, parent, is_child) of the new polygons.
@@ -173,57 +198,29 @@ def _split_once(mesh: PolygonMesh, selected: npt.NDArray[np.bool_]
     return points, new_offsets, new_vertices, parent[order], is_child
 
 
-def _beyond_l(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64], vertices: npt.NDArray[np.int64],
-              polygons: npt.NDArray[np.int64], max_l: int) -> npt.NDArray[np.bool_]:
-    """Mask over ``polygons``: no projection order 3 <= l <= max_l passes the rank check."""
-    n = polygons.size
-    nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
-    status = _build_all(points, offsets, vertices, polygons, np.full(n, 3, dtype=np.int64),
-                        np.full(n, max_l, dtype=np.int64), RANK_TOL,
-                        np.concatenate([[0], np.cumsum(6 * nd)]).astype(np.int64))[0]
-    return status != 0
-
-
-def refine_mesh(mesh: PolygonMesh, where: Selection = None, levels: int = 1, *,
-                tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
-    """Split the selected polygons ``levels`` times; unrefined neighbours gain hanging nodes.
-
-    Parameters
-    ----------
-    mesh
-        Any valid polygon mesh (convex, non-convex polygons, hanging nodes).
-    where, tags
-        The polygons to refine (:func:`select_polygons`).
-    levels
-        Number of splits (>= 1); level k + 1 splits the children of level k, so a selected
-        polygon ends up as about (number of vertices) x 4^(levels - 1) polygons.
-    max_l
-        A neighbour whose new hanging nodes would need a projection order l > ``max_l`` (the
-        rank check of docs/method.md §3; many hanging nodes on one side) is split too, at that
-        level, until no polygon needs more (closure).
+def split_level(mesh: Polygons, chosen: npt.NDArray[np.bool_], max_l: int
+                ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64],
+                           npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
+    """One refinement level of the ``chosen`` polygons (mask (n_polygons,), extended in place),
+    closed: a neighbour whose new hanging nodes would need a projection order l > ``max_l`` (the
+    rank check of docs/method.md §3) is chosen too, until no polygon needs more.
 
     Returns
     -------
-    Refinement
-        The new mesh (region tags and names kept) and the parent of every new polygon.
+    points : (n_new_points, 2)
+        The points of ``mesh`` (same indices), then edge midpoints and piece centres.
+    offsets, vertices
+        The new polygons (CSR, counter-clockwise), ordered by parent.
+    parent : int64
+        The polygon of ``mesh`` containing each new polygon.
+    is_child : bool
+        The new polygons cut from chosen ones (the others are unchosen polygons, with the
+        midpoints of their split edges inserted).
     """
-    if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 1:
-        raise ValueError(f"refine: levels must be an integer >= 1, got {levels!r}")
-    if isinstance(max_l, bool) or not isinstance(max_l, (int, np.integer)) or not 3 <= max_l <= 10:
-        raise ValueError(f"refine: max_l must be an integer in [3, 10], got {max_l!r}")
-    chosen = select_polygons(mesh, where, tags)
-    current, ancestor = mesh, np.arange(mesh.n_polygons, dtype=np.int64)
-    for _ in range(int(levels)):
-        while True:
-            points, offsets, vertices, parent, is_child = _split_once(current, chosen)
-            gained = np.flatnonzero(~is_child & (np.diff(offsets) > np.diff(current.offsets)[parent]))
-            beyond = gained[_beyond_l(points, offsets, vertices, gained, int(max_l))]
-            if beyond.size == 0:
-                break
-            chosen[parent[beyond]] = True
-        refined = PolygonMesh(points, np.split(vertices, offsets[1:-1]), current.tags[parent],
-                              insert_hanging_nodes=False)
-        refined.region_names = dict(mesh.region_names)
-        current, ancestor, chosen = refined, ancestor[parent], is_child
-    split = np.bincount(ancestor, minlength=mesh.n_polygons) > 1
-    return Refinement(mesh, current, ancestor, split, int(levels))
+    while True:
+        points, offsets, vertices, parent, is_child = _split_once(mesh, chosen)
+        gained = np.flatnonzero(~is_child & (np.diff(offsets) > np.diff(mesh.offsets)[parent]))
+        beyond = gained[without_sufficient_order(points, offsets, vertices, gained, 3, max_l)]
+        if beyond.size == 0:
+            return points, offsets, vertices, parent, is_child
+        chosen[parent[beyond]] = True

@@ -22,7 +22,8 @@ from typing import NamedTuple
 import numpy as np
 
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.meshing.gmsh_io import gmsh_session, model_cells
 from dolfinx_sfvem.mesh.polygon import point_location, signed_area
 

@@ -19,7 +19,8 @@ import numpy.typing as npt
 from dolfinx_sfvem.meshing.gmsh_duals import GmshBuilder, dual_of_gmsh, gmsh_triangles, straight_region
 from dolfinx_sfvem.meshing.grids import axis_nodes, n_segments, quad_grid
 from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, csr, glue, length_tolerance
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, next_entries
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.mesh.csr import next_entries
 
 
 #: region tag of the solid bodies (further solids: 3, 4, ...)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
 
 

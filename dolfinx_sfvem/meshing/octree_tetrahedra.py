@@ -26,7 +26,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon import RTOL
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, next_entries, segment_owner
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, next_entries, segment_owner
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 from dolfinx_sfvem.meshing.gmsh3d import VolumeBuilder, gmsh_tetrahedra
 from dolfinx_sfvem.meshing.octree import OctreeMesh

@@ -3,7 +3,7 @@
 
 Nearly cospherical seeds give Voronoi vertices nearly coincident: edges of 1e-5 of the cell's
 diameter, faces of 1e-11 of its squared diameter, on which the element's rank test fails or its
-projections are ill-conditioned (docs/notes/2026-11-26-sfvem-3d-rates.md). Here every edge
+projections are ill-conditioned. Here every edge
 shorter than ``min_edge`` times the diameter of a cell holding it is collapsed:
 
 1. the clusters of points joined by short edges are merged into one point each, kept where one of
@@ -37,7 +37,7 @@ import numpy.typing as npt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from dolfinx_sfvem.mesh.polygon_mesh import concatenated_ranges, segment_owner
+from dolfinx_sfvem.mesh.csr import concatenated_ranges, segment_owner
 from dolfinx_sfvem.mesh.polyhedron_mesh import _relative_orientation, _vertex_sets
 
 #: a vertex farther than this times its face's size from the face's plane is cut off (a tenth of

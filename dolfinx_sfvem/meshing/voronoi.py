@@ -77,8 +77,7 @@ def voronoi_box(seeds: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
     about ``min_edge`` diameters of the Voronoi cells, slightly non-convex where a face was split.
     ``min_edge = 1e-2`` (the default) left no failing cell on 20 random sets of 216 and 512 seeds
     and the rate-study meshes; 1e-3 and 3e-3 leave cells with tiny triangular faces of sides
-    3-4e-3 of their diameter on which the element fails
-    (docs/notes/2026-11-26-voronoi-short-edges.md). ``min_edge = 0`` gives the exact clipped
+    3-4e-3 of their diameter on which the element fails. ``min_edge = 0`` gives the exact clipped
     Voronoi cells: convex polyhedra.
 
     Parameters

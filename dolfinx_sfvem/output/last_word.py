@@ -2,11 +2,11 @@
 
 A library below Python (an MPI runtime, a mesher, a compiler driver) may end the process by
 calling C's ``exit()`` itself: Python then prints no traceback, runs none of its ``atexit``
-handlers, and a run that was started with ``--quiet`` ends with its exit status and nothing else
-(issue 30: runs that "exited with code 1 before printing anything"). :func:`arm` registers a C
+handlers, and a run that was started with ``--quiet`` ends with its exit status and nothing
+else. :func:`arm` registers a C
 ``atexit`` handler that, unless Python is shutting down normally, writes to stderr that the
 process is ending inside a library call, the Python stack at that moment (``faulthandler``) and
-the run's last reported phase (:func:`phase`), so that such an end always says where it
+the run's last reported phase (:func:`~dolfinx_sfvem.output.run_phase.phase`), so that such an end always says where it
 happened. A normal end (``sys.exit``, the end of the script, an uncaught exception, whose
 traceback Python prints itself) disarms it first through Python's ``atexit``.
 
@@ -17,13 +17,15 @@ directory, under the package's compile lock (:mod:`dolfinx_sfvem.discretizations
 from __future__ import annotations
 
 import atexit
-import contextlib
 import hashlib
 import importlib.util
 import logging
 import sys
 import sysconfig
-import typing
+
+from dolfinx_sfvem import _compat
+from dolfinx_sfvem.discretizations.compile_lock import compiler_lock
+from dolfinx_sfvem.output import run_phase
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +87,6 @@ void set_phase(const char *text)
 CDEF = "int arm(void); void disarm(void); void set_phase(const char *text);"
 
 _lib = None
-_phase = ""
 
 
 def _module_name() -> str:
@@ -97,9 +98,6 @@ def _module_name() -> str:
 def _load():
     """Compile (once per cache directory) and import the extension; its ``lib``."""
     import cffi
-
-    from dolfinx_sfvem import _compat
-    from dolfinx_sfvem.discretizations.compile_lock import compiler_lock
 
     name = _module_name()
     directory = _compat.jit_cache_dir()
@@ -132,6 +130,7 @@ def arm() -> bool:
         return False
     atexit.register(lib.disarm)
     _lib = lib
+    run_phase.report_to(lambda text: lib.set_phase(text.encode("utf-8", "replace")[:511]))
     return True
 
 
@@ -141,22 +140,3 @@ def disarm() -> None:
     if _lib is not None:
         _lib.disarm()
 
-
-def phase(text: str) -> str:
-    """Record what the run is doing now (a load step, a compile), reported by the last word;
-    returns the phase it replaces."""
-    global _phase
-    previous, _phase = _phase, text
-    if _lib is not None:
-        _lib.set_phase(text.encode("utf-8", "replace")[:511])
-    return previous
-
-
-@contextlib.contextmanager
-def in_phase(text: str) -> typing.Iterator[None]:
-    """:func:`phase` for the body, the previous phase again after it."""
-    previous = phase(text)
-    try:
-        yield
-    finally:
-        phase(previous)

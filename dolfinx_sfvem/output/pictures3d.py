@@ -35,7 +35,7 @@ import typing
 import numpy as np
 
 from dolfinx_sfvem.mesh.cell_mesh import CellOutlines, reference_edges
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key, next_entries, segment_owner
+from dolfinx_sfvem.mesh.csr import edge_key, next_entries, segment_owner
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 

@@ -2,7 +2,7 @@
 
 After a converged load step, :meth:`ContactProblem.solve(..., adapt=Adaptivity(...))
 <dolfinx_sfvem.ContactProblem.solve>` asks the indicator which polygons to split, splits them
-once (:func:`~dolfinx_sfvem.mesh.refine.refine_mesh`; neighbours gain hanging nodes), carries the
+once (:meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`; neighbours gain hanging nodes), carries the
 state over (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_state`), re-balances it at the same load and
 goes on. Only third-medium polygons are split by choice (the closure of the refinement may split
 a neighbour whose hanging nodes would need a too high projection order). An indicator is any
@@ -25,8 +25,7 @@ from dolfinx_sfvem.physics.contact import ContactPressure, Gap
 from dolfinx_sfvem.discretizations.discretization import Discretization
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
-from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
-from dolfinx_sfvem.mesh.refine import Refinement, refine_mesh
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 
 
 class ProblemState(typing.Protocol):
@@ -123,7 +122,7 @@ class Adaptivity:
     max_unknowns
         No refinement that would give more SFVEM unknowns than this (None: no limit).
     max_l
-        Closure of the refinement (:func:`~dolfinx_sfvem.mesh.refine.refine_mesh`).
+        Closure of the refinement (:meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`).
 
     Attributes
     ----------
@@ -158,7 +157,7 @@ class Adaptivity:
         chosen = wanted & medium_polygons(problem) & (self.level < self.max_levels)
         if not chosen.any():
             return None
-        refinement = refine_mesh(mesh, chosen, 1, max_l=self.max_l)
+        refinement = mesh.refine(chosen, 1, max_l=self.max_l)
         if self.max_unknowns is not None and sfvem_unknowns(refinement.mesh) > self.max_unknowns:
             return None
         return refinement

@@ -1,7 +1,7 @@
 """Continuation in the third medium's gamma along the load path: a stiffer medium early, the asked one at the end.
 
 A very weak medium (gamma = 1e-6) squeezed between two solids can make the load path stall or
-end on an unstable equilibrium (docs/notes/2026-11-26-weak-medium.md). With
+end on an unstable equilibrium. With
 ``solve(..., gamma_start=g0)`` every :class:`~dolfinx_sfvem.physics.energy.ThirdMedium` of the problem
 starts at ``g0`` and its gamma falls log-linearly with the load factor λ to the gamma it was
 given at the end of the path (λ = ``until``, 1 by default)::

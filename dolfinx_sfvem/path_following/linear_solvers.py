@@ -8,8 +8,8 @@ tangent onto the degree-1 space on the same mesh (the discretization's
 :meth:`~dolfinx_sfvem.discretizations.discretization.Discretization.coarse_interpolation`, set by
 :func:`configure_ksp`). Algebraic multigrid on the whole tangent (GAMG) stagnates with a third
 medium: its regularization, a function of the second gradient, vanishes on the fields that are
-linear per element, so these are near-null in the medium and must be on the coarse level
-(docs/notes/2026-11-26-iterative-solver.md). It reports no inertia. Within Newton's iterations
+linear per element, so these are near-null in the medium and must be on the coarse level.
+It reports no inertia. Within Newton's iterations
 GMRES stops at a relative tolerance of Eisenstat and Walker's choice (SNES's ``ksp_ew``: at most
 1e-2, tightened as Newton's residual falls), outside them (the arc-length's bordering) at 1e-10.
 Which one to take at which size: docs/guide/solving.md. The tangent carries the rigid-body

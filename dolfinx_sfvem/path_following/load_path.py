@@ -1,7 +1,7 @@
 """The load path driver: a control's attempts turned into records, output, continuation and adaptivity.
 
-:class:`LoadPath` runs a :class:`~dolfinx_sfvem.problem.ContactProblem` (the definition and
-the state) along a path with a control (:class:`~dolfinx_sfvem.path_following.stepping.LoadStepping` by
+:class:`LoadPath` runs a problem (the definition and the state; what it reads of one is
+:class:`Problem`, which a :class:`~dolfinx_sfvem.problem.ContactProblem` has) along a path with a control (:class:`~dolfinx_sfvem.path_following.stepping.LoadStepping` by
 default, :class:`~dolfinx_sfvem.path_following.arclength.ArcLength`), the way FElupe's ``Job`` evaluates the
 increments its ``Step`` yields::
 
@@ -29,8 +29,10 @@ from dataclasses import asdict
 import numpy as np
 from petsc4py import PETSc
 
-from dolfinx_sfvem.output import last_word
-from dolfinx_sfvem.path_following.adaptivity import Adaptivity
+from dolfinx_sfvem.output import run_phase
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
+from dolfinx_sfvem.path_following.adaptivity import Adaptivity, ProblemState
+from dolfinx_sfvem.physics.contact import BoundaryNodes, ContactPressure, Gap
 from dolfinx_sfvem.physics.equilibrium import Equilibrium
 from dolfinx_sfvem.path_following.gamma_continuation import ContinuedStepSolver, GammaContinuation
 from dolfinx_sfvem.path_following.interrupt import StopRequest, signal_of
@@ -39,7 +41,6 @@ from dolfinx_sfvem.physics.loads import VectorLoad
 from dolfinx_sfvem.output.run_output import RunWriter, progress_line, read_checkpoint
 from dolfinx_sfvem.output.run_summary import (
     STOPPED_BY_SIGNAL, Observer, Result, StepRecord, describe_economy, newton_economy)
-from dolfinx_sfvem.problem import ContactProblem
 from dolfinx_sfvem.path_following.snes import NewtonResult, SNESNewton, SolveFailed
 from dolfinx_sfvem.path_following.stability import final_stability, instability, is_stable
 from dolfinx_sfvem.path_following.step_solver import StepSolver
@@ -51,7 +52,47 @@ log = logging.getLogger(__name__)
 RELAX_STEPS = 4
 
 
-def observe(problem: ContactProblem, observers: typing.Mapping[str, Observer]) -> dict[str, float]:
+class PrescribedValues(typing.Protocol):
+    """A problem's prescribed displacements on its current discretization."""
+    dofs: np.ndarray                        # (k,) int64: constrained unknowns, local blocked numbering, sorted
+    final: np.ndarray                       # (k_owned,): their values at load factor 1, the owned ones
+    dofs_of: dict[str, np.ndarray]          # the unknowns of every boundary condition, by its name
+
+
+class Problem(ProblemState, typing.Protocol):
+    """What the driver reads and sets of a problem: its definition, its state (``x`` at load
+    factor ``load``) and the queries on them, as :class:`~dolfinx_sfvem.problem.ContactProblem`
+    has them."""
+    boundary: BoundaryNodes
+    load: float
+    solved: bool
+    verbose: bool
+    petsc_options_prefix: str
+    linear_solver: str
+
+    def constraints(self) -> PrescribedValues: ...
+
+    def equilibrium(self) -> Equilibrium: ...
+
+    def reactions(self, force: PETSc.Vec | None = None,
+                  dofs_of: typing.Mapping[str, np.ndarray] | None = None) -> dict[str, list[float]]: ...
+
+    def max_displacement(self) -> float: ...
+
+    def contact_state(self) -> tuple[Gap, ContactPressure]: ...
+
+    def point_displacements(self) -> np.ndarray | None: ...
+
+    def gathered_state(self) -> np.ndarray: ...
+
+    def move_to(self, refinement: Refinement) -> None: ...
+
+    def rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None: ...
+
+    def describe(self) -> dict: ...
+
+
+def observe(problem: Problem, observers: typing.Mapping[str, Observer]) -> dict[str, float]:
     """The observers' values: ``name`` for a number, ``name.key`` for each entry of a mapping."""
     values: dict[str, float] = {}
     for name, f in observers.items():
@@ -67,7 +108,7 @@ class LoadPath:
     """A run of a problem along a load path (module docstring); the parameters are those of
     :meth:`ContactProblem.solve <dolfinx_sfvem.problem.ContactProblem.solve>`."""
 
-    def __init__(self, problem: ContactProblem, control: Control, out: str | pathlib.Path | None = None, *,
+    def __init__(self, problem: Problem, control: Control, out: str | pathlib.Path | None = None, *,
                  petsc_options: typing.Mapping[str, typing.Any] | None = None,
                  observers: typing.Mapping[str, Observer] | None = None, raise_on_failure: bool = False,
                  resume: bool = False, from_current_state: bool = False, until: float = 1.0,
@@ -159,7 +200,7 @@ class LoadPath:
                                                   f"({rec.failure})")
                             self._undo_adaptation(*undo)
                             undo, adapt, refined = None, None, -1
-                        last_word.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
+                        run_phase.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
                         if refined or stop.requested(p.comm):
                             break
                     solver.destroy()

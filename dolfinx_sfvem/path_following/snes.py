@@ -18,7 +18,7 @@ afterwards, so nothing of this library stays in the database.
 Default line search: ``bt`` (one residual per Newton iteration when the full step is
 acceptable), and a solve that fails with it is repeated once from its start with
 :data:`FALLBACK_LINE_SEARCH` ``l2`` (about three residuals per iteration, robust at contact
-onset) before the caller cuts the increment back; measurements in docs/notes/2026-11-23-performance-rounds.md. A line
+onset) before the caller cuts the increment back. A line
 search given on the command line or from Python has no fallback.
 
 A solve that cannot succeed is abandoned early (:meth:`SNESNewton.abandon_reason`): when
@@ -49,7 +49,7 @@ epsilon; ``atol`` is updated at every tangent. ``F_c`` is the size of the elemen
 residual is summed from. ``r_0`` is the residual's round-off floor near F = I, where the stress
 terms are O(modulus) each and cancel: their round-off, eps times a force ``||K||_inf h`` per
 row, does not shrink with the load (measured: Newton stagnates at 0.003 to 0.02 r_0, SFVEM and
-FEM, 2.5e3 to 3.3e4 unknowns; docs/notes/2026-11-26-tolerances-volume-first-step.md), so a tiny
+FEM, 2.5e3 to 3.3e4 unknowns), so a tiny
 load converges on the defaults. Both are proportional to the moduli, so moduli and loads scaled
 together give the same Newton iterations and solution. Why and what was measured: docs/method.md §6.
 """
@@ -221,7 +221,7 @@ def stalled(norms: typing.Sequence[float]) -> bool:
 
 def _stall(norms: typing.Sequence[float], atol: float, roundoff: float | None) -> str:
     """Where Newton stalled: its smallest residual in units of ``atol`` and of the round-off level
-    eps F_c (None when ``snes_atol`` was given), and what that suggests (docs/notes/2026-11-23-gamma-1e-6.md)."""
+    eps F_c (None when ``snes_atol`` was given), and what that suggests."""
     floor = min(norms)
     text = f"smallest residual {floor:.3e} = {floor / atol:.3g} x atol {atol:.3e}"
     if roundoff:
@@ -497,8 +497,7 @@ class SNESNewton:
         potential is then minimal at the solution) and the line search is the default one. From
         a stress-free state the residual's norm rises along Newton's step (its linearized
         rotations stretch stiff material) while the potential falls, and the norm-based line
-        search creeps at a few percent of every step
-        (docs/notes/2026-11-26-tolerances-volume-first-step.md)."""
+        search creeps at a few percent of every step."""
         with x.localForm() as xl:
             moved = bool(np.any(xl.array_r[self.disc.constraints.owned] != np.asarray(g)))
         moved = self.comm.allreduce(moved, op=MPI.LOR)

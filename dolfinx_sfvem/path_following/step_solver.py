@@ -24,9 +24,11 @@ class StepSolver:
     Parameters
     ----------
     equilibrium
-        R(u; λ), its tangent and load vector, loads bound to the mesh's discretization.
+        R(u; λ), its tangent and load vector, loads bound to the mesh's discretization; owned
+        (:meth:`destroy` frees it).
     newton
-        Newton's method at a fixed load factor on ``equilibrium``; its KSP factorizes the tangent.
+        Newton's method at a fixed load factor on ``equilibrium``; its KSP factorizes the
+        tangent; owned.
     x
         The state, updated in place by the solves.
     final : (k,) array
@@ -76,4 +78,7 @@ class StepSolver:
         return result
 
     def destroy(self) -> None:
+        """Free the PETSc objects of the Newton solver and of the balance: the step solver owns
+        both (the load path makes them for it, one per mesh)."""
         self.newton.destroy()
+        self.equilibrium.destroy()

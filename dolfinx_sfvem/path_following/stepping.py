@@ -121,7 +121,7 @@ class LoadStepping(Control):
     potential while far from the solution, where there is one and no prescribed displacement
     moves in it (:meth:`StepSolver.solve_at`): from the stress-free state the residual's norm is a
     poor merit, and the default line search crept at a few percent of Newton's step for tens of
-    iterations (docs/notes/2026-11-26-tolerances-volume-first-step.md).
+    iterations.
 
     A step that is not accepted (SNES divergence, J <= 0, a folded element, NaN, or a rejection
     by the caller such as overlapping solids) is retried from the last converged state with half

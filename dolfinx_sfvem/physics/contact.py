@@ -27,6 +27,7 @@ compiled loop over node-piece pairs.
 """
 from __future__ import annotations
 
+import abc
 import dataclasses
 import math
 import typing
@@ -164,7 +165,50 @@ class ContactPressure:
     pairs: list[ContactPair]
 
 
-class SolidBoundary:
+class BoundaryNodes(abc.ABC):
+    """Boundary nodes named by discretization keys, with the gap at their displacements: what the
+    2D :class:`SolidBoundary` and the 3D
+    :class:`~dolfinx_sfvem.physics.solid_surface.SolidSurface` share.
+
+    Attributes
+    ----------
+    node_keys : (n_nodes,) int64
+        Sorted discretization keys of the boundary nodes.
+    tolerance : float
+        Overlap tolerance as a fraction of the local mesh size.
+    """
+
+    node_keys: np.ndarray
+    tolerance: float
+
+    @abc.abstractmethod
+    def gap(self, u: np.ndarray) -> Gap:
+        """The smallest signed gap at displacements ``u`` (n_nodes, d) of the boundary nodes (in
+        the order of :attr:`node_keys`)."""
+
+    def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
+        """The boundary nodes' rows of each rank's owned nodal ``values`` (k, d) with node ``keys``
+        (k,) (``get_state`` of a discretization), in :attr:`node_keys` order on rank 0 (None
+        elsewhere; collective)."""
+        mine = np.isin(keys, self.node_keys)
+        pieces = comm.gather((keys[mine], values[mine]), root=0)
+        if comm.rank != 0:
+            return None
+        k = np.concatenate([piece[0] for piece in pieces])
+        v = np.concatenate([piece[1] for piece in pieces])
+        _, first = np.unique(k, return_index=True)
+        if not np.array_equal(k[first], self.node_keys):
+            raise RuntimeError("boundary nodes missing from the state")
+        return v[first]
+
+    def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
+        """:meth:`gap` from each rank's owned nodal values (``get_state`` of a discretization;
+        collective, the result on every rank)."""
+        u = self.gather(comm, keys, values)
+        return comm.bcast(self.gap(u) if comm.rank == 0 else None, root=0)
+
+
+class SolidBoundary(BoundaryNodes):
     """The boundary of the solid bodies of a mesh, as pieces between degree-2 nodes.
 
     Parameters
@@ -322,27 +366,6 @@ class SolidBoundary:
         piece_length = np.linalg.norm(x[self.pieces[:, 1]] - x[self.pieces[:, 0]], axis=1)
         return contact_pressure(self, x, g, partner, p, f, piece_length)
 
-    def gather(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> np.ndarray | None:
-        """The boundary nodes' rows of each rank's owned nodal ``values`` (k, 2) with node ``keys``
-        (k,) (``get_state`` of a discretization), in :attr:`node_keys` order on rank 0 (None
-        elsewhere; collective)."""
-        mine = np.isin(keys, self.node_keys)
-        pieces = comm.gather((keys[mine], values[mine]), root=0)
-        if comm.rank != 0:
-            return None
-        k = np.concatenate([piece[0] for piece in pieces])
-        v = np.concatenate([piece[1] for piece in pieces])
-        _, first = np.unique(k, return_index=True)
-        if not np.array_equal(k[first], self.node_keys):
-            raise RuntimeError("boundary nodes missing from the state")
-        return v[first]
-
-    def gap_of_state(self, comm: MPI.Comm, keys: np.ndarray, values: np.ndarray) -> Gap:
-        """:meth:`gap` from each rank's owned nodal values (``get_state`` of a discretization;
-        collective, the result on every rank)."""
-        u = self.gather(comm, keys, values)
-        return comm.bcast(self.gap(u) if comm.rank == 0 else None, root=0)
-
 
 class _Pieces(typing.Protocol):
     """What :func:`smallest_gap` and :func:`contact_pressure` read of a :class:`SolidBoundary` (pieces:
@@ -482,20 +505,3 @@ def _signed_gaps(x, X, pieces, body_offsets, node_body, node_normal, piece_norma
                 elif d < g[p]:
                     g[p], partner[p] = d, s
     return g, partner, depth
-
-
-def solid_boundary(mesh, solid_tags: typing.Collection[int],
-                   midpoint_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray],
-                   tolerance: float = OVERLAP_TOLERANCE,
-                   face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                   pressure_keys: np.ndarray | None = None):
-    """The contact geometry of ``mesh``: :class:`SolidBoundary` for a :class:`PolygonMesh`,
-    :class:`~dolfinx_sfvem.physics.solid_surface.SolidSurface` for a 3D ``CellMesh`` (the same interface;
-    ``face_centre_keys`` only for hexahedra, ``pressure_keys`` only in 3D)."""
-    if isinstance(mesh, PolygonMesh):
-        return SolidBoundary(mesh, solid_tags, midpoint_keys, tolerance)
-    if np.shape(mesh.points)[1] != 3:
-        raise TypeError(f"contact checks need a PolygonMesh (2D) or a 3D mesh, not a {mesh.cell_type} mesh "
-                        f"with {np.shape(mesh.points)[1]} coordinates")
-    from dolfinx_sfvem.physics.solid_surface import SolidSurface       # libigl is needed in 3D only
-    return SolidSurface(mesh, solid_tags, midpoint_keys, tolerance, face_centre_keys, pressure_keys)

@@ -26,7 +26,7 @@ import typing
 from petsc4py import PETSc
 
 from dolfinx_sfvem.discretizations.discretization import AssemblyInfo, Discretization
-from dolfinx_sfvem.physics.loads import BoundLoad
+from dolfinx_sfvem.physics.bound_load import BoundLoad
 
 
 class Equilibrium:

@@ -43,7 +43,7 @@ from dolfinx_sfvem import _compat
 from dolfinx_sfvem.discretizations.compile_lock import compiled_form
 from dolfinx_sfvem.discretizations.discretization import Discretization
 from dolfinx_sfvem.physics.energy import VolumeWork
-from dolfinx_sfvem.physics.loads import BoundLoad, _BoundCavityPressure, _largest_entry
+from dolfinx_sfvem.physics.bound_load import BoundLoad, CavityPressureTerm, largest_entry
 
 #: the tag of the loaded facets in a load's facet tags
 LOADED = 1
@@ -187,9 +187,6 @@ class FaceForms:
         """The form's value over all ranks (collective)."""
         return float(self.disc.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
 
-    def compile(self, form: ufl.Form) -> dolfinx.fem.Form:
-        return compiled_form(form)
-
     def swept_volume(self) -> ufl.Form:
         """The volume swept into the body by the faces along straight paths (module docstring)."""
         return -ufl.dot(self.u, mean_cofactor(ufl.grad(self.u)) * self.N) * self.ds
@@ -208,7 +205,7 @@ class BoundFaceTraction(BoundLoad):
         self._work = compiled_form(ufl.dot(t, self.forms.u) * self.forms.ds)
         area = self.forms.scalar(compiled_form(self.forms.scale * self.forms.ds))
         self.magnitude = self.t_norm * area
-        self.reference_norm = _largest_entry(self, None)
+        self.reference_norm = largest_entry(self, None)
 
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
         self.forms.add_vector(self._force, f)
@@ -246,14 +243,14 @@ class BoundFacePressure(BoundLoad):
             force = -p * ufl.dot(forms.N, forms.v) * forms.ds
             self._conjugate = compiled_form(-ufl.dot(forms.u, forms.N) * forms.ds)
         self._force = compiled_form(force)
-        self.reference_norm = _largest_entry(self, None)
+        self.reference_norm = largest_entry(self, None)
 
     def symmetric_with(self, constrained: np.ndarray) -> bool:
         """Whether the load stiffness is symmetric once the unknowns ``constrained`` (local mask
         (n_local_dofs,), 3 per node) are eliminated (collective): a dead pressure always; a
         follower one when the boundary term ∮ p (δu × Δu) · dx of its stiffness's skew part
-        vanishes on every edge of the loaded surface's boundary curve (none on a closed surface;
-        docs/notes/2026-11-26-follower-pressure-symmetry.md). On an edge it does when the
+        vanishes on every edge of the loaded surface's boundary curve (none on a closed
+        surface). On an edge it does when the
         components constrained at all of its nodes are
 
         - two or three: δu and Δu are both along the free axis (or 0), δu × Δu = 0;
@@ -293,13 +290,12 @@ class BoundFacePressure(BoundLoad):
         return {"magnitude": load * self.p, "displacement": self.forms.scalar(self._conjugate)}
 
 
-
-class BoundCavityPressure3D(_BoundCavityPressure):
+class BoundCavityPressure3D(CavityPressureTerm):
     """The energy term −λ p ∫ (J − 1) dΩ over a medium region of a 3D mesh; its faces on the mesh
     boundary (``open_facets``, local) must lie in planes x, y or z = const (symmetry planes)."""
 
     def __init__(self, name: str, disc: Discretization, term, p: float, open_facets: np.ndarray, axes: np.ndarray):
-        super().__init__(name, disc, term, p, np.empty((0, 3), dtype=np.int64))
+        super().__init__(name, disc, term, p)
         fdim = disc.mesh.topology.dim - 1
         #: per axis k, the local nodes on the open faces normal to it
         self.open_nodes = [disc.nodes_of_host(dolfinx.fem.locate_dofs_topological(disc.V, fdim, open_facets[axes == k]))

@@ -32,6 +32,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dolfinx_sfvem.physics import edge_loads
+from dolfinx_sfvem.physics.bound_load import BoundLoad, CavityPressureTerm, largest_entry
 from dolfinx_sfvem.discretizations.discretization import Discretization, EnergyTerm
 from dolfinx_sfvem.physics.energy import VolumeWork
 
@@ -46,62 +47,6 @@ def _describe_where(where: Where) -> typing.Any:
 
 
 # --------------------------------------------------------------------------- bound loads
-class BoundLoad(abc.ABC):
-    """A load on one discretization (module docstring).
-
-    Attributes
-    ----------
-    name : str
-    follows : bool
-        Its force depends on the displacement (then :meth:`add_force` is called at every state).
-    is_energy : bool
-        It is an energy term of the discretization (then the discretization's residual and
-        tangent hold it; :meth:`add_energy_force` gives its part of −∂R/∂λ).
-    has_stiffness : bool
-        It adds a load stiffness to the tangent (:meth:`add_stiffness`).
-    reference_norm : float
-        Largest entry of its force at λ = 1 in the reference state (tolerance scale).
-    """
-
-    follows = False
-    is_energy = False
-    has_stiffness = False
-    reference_norm = 0.0
-
-    def __init__(self, name: str, disc: Discretization):
-        self.name = name
-        self.disc = disc
-        self.comm = disc.comm
-
-    def set_load(self, load: float) -> None:
-        """The load factor of the following evaluations."""
-
-    def symmetric_with(self, constrained: np.ndarray) -> bool:
-        """Whether its load stiffness is symmetric once the unknowns ``constrained`` (local mask
-        (n_local_dofs,)) are eliminated (collective)."""
-        return True
-
-    def check_constraints(self, constrained: np.ndarray) -> None:
-        """ValueError if the load needs constraints that the unknowns ``constrained`` (local mask
-        (n_local_dofs,)) lack (collective)."""
-
-    def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
-        """f += the load's nodal forces at λ = 1, at the local displacements u (n_local_nodes, d)
-        (None: the reference state), into the local array f (n_local_nodes, d); only what this
-        rank owns (ghost entries are accumulated by the caller)."""
-
-    def add_stiffness(self, u: np.ndarray, A: PETSc.Mat, scale: float) -> None:
-        """A += scale ∂f/∂u at u (entries added, A assembled by the caller)."""
-
-    def add_energy_force(self, x: PETSc.Vec, f: PETSc.Vec, work: PETSc.Vec) -> None:
-        """f += −∂W_c/∂u at λ = 1 (an energy load's part of −∂R/∂λ); ``work`` a scratch vector."""
-
-    @abc.abstractmethod
-    def measure(self, x: PETSc.Vec, load: float) -> dict[str, float]:
-        """``{"magnitude": ..., "displacement": ...}`` at the state x and load factor ``load``
-        (module docstring; collective)."""
-
-
 class VectorLoad(BoundLoad):
     """A dead load given by an assembled force vector at λ = 1 (body force, point force); its
     magnitude is ``magnitude`` and its displacement the work f · u per magnitude."""
@@ -135,7 +80,7 @@ class _BoundTraction(_EdgeLoad):
         super().__init__(name, disc, edges)
         self.t = t
         self.magnitude = self.comm.allreduce(edge_loads.traction_magnitude(edges, self.X, t), op=MPI.SUM)
-        self.reference_norm = _largest_entry(self, None)
+        self.reference_norm = largest_entry(self, None)
 
     def add_force(self, u: np.ndarray | None, f: np.ndarray) -> None:
         edge_loads.dead_traction_forces(self.edges, self.X, self.t, f)
@@ -157,7 +102,7 @@ class _BoundPressure(_EdgeLoad):
         self.p = p
         self.follows = self.has_stiffness = follower
         self.ends = ends
-        self.reference_norm = _largest_entry(self, None)
+        self.reference_norm = largest_entry(self, None)
 
     def symmetric_with(self, constrained: np.ndarray) -> bool:
         """Whether the load stiffness is symmetric once the unknowns ``constrained`` (local mask
@@ -189,29 +134,13 @@ class _BoundPressure(_EdgeLoad):
         return {"magnitude": load * self.p, "displacement": self.comm.allreduce(local, op=MPI.SUM)}
 
 
-class _BoundCavityPressure(BoundLoad):
-    """The energy term −λ p ∫ (J − 1) dΩ over a medium region."""
-
-    is_energy = True
+class _BoundCavityPressure(CavityPressureTerm):
+    """The energy term −λ p ∫ (J − 1) dΩ over a medium region of a polygon mesh; its edges on the
+    mesh boundary (``open_edges``, (n, 3) local nodes) must lie on lines x or y = const."""
 
     def __init__(self, name: str, disc: Discretization, term: EnergyTerm, p: float, open_edges: np.ndarray):
-        super().__init__(name, disc)
-        self.term = term
-        self.p = p
-        self.open_edges = open_edges       # (n, 3) local nodes of its edges on the mesh boundary
-        x, work = disc.create_vector(), disc.create_vector()
-        x.set(0.0)
-        disc.term_force(term, x, work, {"p": p})
-        self.reference_norm = work.norm(PETSc.NormType.NORM_INFINITY)
-        x.destroy()
-        work.destroy()
-
-    def set_load(self, load: float) -> None:
-        self.term.params["p"] = load * self.p
-
-    def add_energy_force(self, x: PETSc.Vec, f: PETSc.Vec, work: PETSc.Vec) -> None:
-        self.disc.term_force(self.term, x, work, {"p": self.p})
-        f.axpy(-1.0, work)
+        super().__init__(name, disc, term, p)
+        self.open_edges = open_edges
 
     def check_constraints(self, constrained: np.ndarray) -> None:
         """ValueError naming an edge of the region on the mesh boundary whose nodes do not all have
@@ -224,19 +153,6 @@ class _BoundCavityPressure(BoundLoad):
             raise ValueError(f"cavity pressure {self.name!r}: region {self.term.tag} is not closed: its edge {text} "
                              f"lies on the boundary of the mesh without u_{'xy'[normal]} fixed at its nodes (a "
                              "symmetry line closes a cavity only with its normal displacement fixed)")
-
-    def measure(self, x: PETSc.Vec, load: float) -> dict[str, float]:
-        work = self.disc.create_vector()
-        area_work = self.disc.term_force(self.term, x, work, {"p": 1.0})   # −∫ (J − 1) dΩ
-        work.destroy()
-        return {"magnitude": load * self.p, "displacement": -area_work}
-
-
-def _largest_entry(load: BoundLoad, u: np.ndarray | None) -> float:
-    """Largest entry of the load's nodal forces at λ = 1 over all ranks (collective)."""
-    f = np.zeros((load.disc.n_local_nodes, load.disc.gdim))
-    load.add_force(u, f)
-    return load.comm.allreduce(float(np.abs(f).max(initial=0.0)), op=MPI.MAX)
 
 
 # --------------------------------------------------------------------------- edge selection

@@ -48,8 +48,8 @@ import scipy.sparse.csgraph
 import scipy.spatial
 
 from dolfinx_sfvem.physics.contact import (
-    FACING_COSINE, OVERLAP_TOLERANCE, ContactPressure, Gap, SolidBoundary, contact_pressure, smallest_gap)
-from dolfinx_sfvem.mesh.polygon_mesh import edge_key
+    FACING_COSINE, OVERLAP_TOLERANCE, BoundaryNodes, ContactPressure, Gap, contact_pressure, smallest_gap)
+from dolfinx_sfvem.mesh.csr import edge_key
 
 #: the faces of DOLFINx's reference cells, vertices in cyclic order (oriented outwards afterwards)
 CELL_FACES = {"tetrahedron": np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]),
@@ -127,11 +127,12 @@ def surface_faces(points: np.ndarray, cells: np.ndarray, tags: np.ndarray, cell_
 
 
 def default_face_centre_keys(n_points: int) -> typing.Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """Keys of Q2 face-centre nodes by 3D-INTERFACES.md: ``n + n² + edge_key(a, c, n)``."""
+    """Keys of the Q2 face-centre nodes of a mesh with ``n_points`` points, from a face's
+    diagonal (a, c): ``n + n² + edge_key(a, c, n)``, after the point and edge-midpoint keys."""
     return lambda a, c: n_points + n_points * n_points + edge_key(a, c, n_points)
 
 
-class SolidSurface:
+class SolidSurface(BoundaryNodes):
     """The boundary surface of the solid bodies of a 3D mesh, as flat sub-triangles between its
     degree-2 nodes: :class:`.contact.SolidBoundary` in 3D (the same public interface).
 
@@ -149,8 +150,8 @@ class SolidSurface:
         Overlap tolerance as a fraction of the longest surface edge at a node.
     face_centre_keys
         ``face_centre_keys(a, c)`` -> keys of the Q2 face-centre nodes of the quadrilateral faces
-        with diagonal (a, c), a the face's smallest vertex (hexahedra only; default: the keys of
-        3D-INTERFACES.md).
+        with diagonal (a, c), a the face's smallest vertex (hexahedra only; default:
+        :func:`default_face_centre_keys`).
 
     Attributes
     ----------
@@ -243,9 +244,6 @@ class SolidSurface:
     def _in_node_order(values: np.ndarray) -> np.ndarray:
         """Nodal ``values`` as given: the nodes are numbered in :attr:`node_keys` order."""
         return np.asarray(values, dtype=float)
-
-    gather = SolidBoundary.gather
-    gap_of_state = SolidBoundary.gap_of_state
 
     def _body_triangles(self, body: int) -> np.ndarray:
         return self.triangles[self.body_offsets[body]:self.body_offsets[body + 1]]
