@@ -48,10 +48,10 @@ from mpi4py import MPI
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.output import last_word
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX, options_from_tokens
+from dolfinx_sfvem.physics.energy import QUADRATURES
 
 METHODS = ("vem", "fem")
 REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
-MEDIUM_QUADRATURES = ("gauss", "lobatto")
 
 
 # --------------------------------------------------------------------------- argument types
@@ -138,7 +138,7 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--beta", type=non_negative_float, default=beta,
                    help="exponent of the exp(-beta J) scaling of the regularization "
                         f"(default {'off' if beta is None else '%(default)s'})")
-    p.add_argument("--medium-quadrature", choices=MEDIUM_QUADRATURES, default=MEDIUM_QUADRATURES[0],
+    p.add_argument("--medium-quadrature", choices=QUADRATURES, default=QUADRATURES[0],
                    help="where the medium's energy is integrated: its Gauss points, or 'lobatto': the Gauss-Lobatto "
                         "points, which are the nodes of Q2 cells (--method fem on quadrilaterals or hexahedra only; "
                         "docs/guide/medium.md; default %(default)s)")
