@@ -11,7 +11,8 @@ as many unknowns), ``--steps`` (the first load-factor increment is 1/steps), ``-
 ``--min-increment``, ``--fixed-increments``, ``--no-predictor`` (the load stepping of
 :class:`~dolfinx_sfvem.path_following.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
-regularization, off unless given), ``--gamma-start`` (continuation in gamma from this value,
+regularization, off unless given), ``--medium-quadrature`` (gauss, or lobatto: the FEM integrates
+the medium at its Q2 nodes), ``--gamma-start`` (continuation in gamma from this value,
 :mod:`dolfinx_sfvem.path_following.gamma_continuation`), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
 (SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
@@ -50,6 +51,7 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem.output import last_word
 from dolfinx_sfvem.path_following.interrupt import raise_interrupted, signal_of
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX, options_from_tokens
+from dolfinx_sfvem.physics.energy import QUADRATURES
 
 METHODS = ("vem", "fem")
 REGULARIZATIONS = ("huhu", "huhu_lulu", "rotation", "tan_rotation")
@@ -139,6 +141,10 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--beta", type=non_negative_float, default=beta,
                    help="exponent of the exp(-beta J) scaling of the regularization "
                         f"(default {'off' if beta is None else '%(default)s'})")
+    p.add_argument("--medium-quadrature", choices=QUADRATURES, default=QUADRATURES[0],
+                   help="where the medium's energy is integrated: its Gauss points, or 'lobatto': the Gauss-Lobatto "
+                        "points, which are the nodes of Q2 cells (--method fem on quadrilaterals or hexahedra only; "
+                        "docs/guide/medium.md; default %(default)s)")
     p.add_argument("--gamma-start", type=positive_float, default=None, metavar="G0",
                    help="continuation in gamma: the medium starts the path at G0 and its gamma falls "
                         "log-linearly with the load factor to --gamma at the full load (e.g. 1e-5 for "
@@ -243,10 +249,11 @@ def discretization(args: argparse.Namespace) -> dict:
     return options
 
 
-def third_medium(args: argparse.Namespace, mu: float) -> sf.ThirdMedium:
-    """The third medium of the command line (``--gamma --alpha-r --regularization --beta``)."""
-    return sf.ThirdMedium(mu=mu, gamma=args.gamma, alpha_r=args.alpha_r,
-                          regularization=args.regularization, beta=args.beta)
+def third_medium(args: argparse.Namespace, mu: float, K: float = 0.0) -> sf.ThirdMedium:
+    """The third medium of shear modulus ``mu`` and bulk modulus ``K`` with the command line's
+    ``--gamma --alpha-r --regularization --beta --medium-quadrature``."""
+    return sf.ThirdMedium(mu=mu, K=K, gamma=args.gamma, alpha_r=args.alpha_r, regularization=args.regularization,
+                          beta=args.beta, quadrature=args.medium_quadrature)
 
 
 # --------------------------------------------------------------------------- markers and observers

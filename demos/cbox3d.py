@@ -196,8 +196,7 @@ def build(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[sf
         raise ValueError("cbox3d: give --n or --h, not both")
     box = (sf.meshes.cbox3d(h=args.h, cell=args.cell, tip_refinement=args.tip_refinement) if args.h is not None
            else sf.meshes.cbox3d(n=tuple(args.n or N_DEFAULT), cell=args.cell, tip_refinement=args.tip_refinement))
-    medium = sf.ThirdMedium(mu=MU, K=args.medium_K, gamma=args.gamma, alpha_r=args.alpha_r,
-                            regularization=args.regularization, beta=args.beta)
+    medium = common.third_medium(args, mu=MU, K=args.medium_K)
     problem = sf.ContactProblem(box.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU), sf.meshes.MEDIUM: medium},
                                 comm=comm, linear_solver=args.linear_solver, **common.discretization(args))
     problem.fix(box.marker("clamp"), name="clamp")

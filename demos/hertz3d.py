@@ -171,8 +171,7 @@ def build(args: argparse.Namespace) -> tuple[sf.ContactProblem, dict]:
     bench = mesher(h_contact=args.h, h_far=args.h_far, gap=args.gap, fine_radius=args.fine_radius,
                    h_core=args.h_core or None, core_radius=args.core_radius)
     s = args.stiffness
-    medium = sf.ThirdMedium(mu=MU, K=K, gamma=args.gamma, alpha_r=args.alpha_r,
-                            regularization=args.regularization, beta=args.beta)
+    medium = common.third_medium(args, mu=MU, K=K)
     problem = sf.ContactProblem(bench.mesh, {sf.meshes.SOLID: sf.Hyperelastic(K=K, mu=MU),
                                              SPHERE: sf.Hyperelastic(K=s * K, mu=s * MU),
                                              sf.meshes.MEDIUM: medium}, **common.discretization(args))

@@ -191,8 +191,7 @@ def build(load: str, p: float, h: float, args: argparse.Namespace) -> sf.Contact
     bench = sf.meshes.thick_sphere(A_IN, B_OUT, h, filled=load == "cavity")
     materials = {"solid": sf.Hyperelastic(K=K, mu=MU)}
     if load == "cavity":
-        materials["cavity"] = sf.ThirdMedium(mu=MU_MEDIUM, K=K_MEDIUM, gamma=args.gamma, alpha_r=args.alpha_r,
-                                             regularization=args.regularization, beta=args.beta)
+        materials["cavity"] = common.third_medium(args, mu=MU_MEDIUM, K=K_MEDIUM)
     problem = sf.ContactProblem(bench.mesh, materials, **common.discretization(args))
     for axis, plane in zip("xyz", SYMMETRY):
         problem.fix(bench.marker(plane), components=axis, name=plane)

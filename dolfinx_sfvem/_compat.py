@@ -540,11 +540,21 @@ def create_cell_tags(mesh: dolfinx.mesh.Mesh, values: npt.NDArray[np.int32]):
     return dolfinx.mesh.meshtags(mesh, mesh.topology.dim, cells, np.ascontiguousarray(values, dtype=np.int32))
 
 
-def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int
+def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int, rule: str = "default"
                          ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Basix's default rule on the reference cell of ``mesh`` exact for ``degree`` (the rule FFCx
-    uses for ``metadata={"quadrature_degree": degree}``): points (n, 2) and weights (n,)."""
-    points, weights = basix.make_quadrature(getattr(basix.CellType, mesh.topology.cell_type.name), degree)
+    """Basix's rule ``rule`` on the reference cell of ``mesh`` exact for ``degree``, the rule FFCx
+    uses for ``metadata={"quadrature_rule": rule, "quadrature_degree": degree}`` (both stacks spell
+    the metadata so): points (n, tdim) and weights (n,).
+
+    ``rule`` is a name of ``basix.quadrature.string_to_type``: ``"default"`` or ``"GLL"``
+    (Gauss-Lobatto-Legendre, on quadrilaterals and hexahedra; degree 2-3: the Q2 nodes).
+    """
+    cell = getattr(basix.CellType, mesh.topology.cell_type.name)
+    rule_type = basix.quadrature.string_to_type(rule)
+    if hasattr(basix.quadrature, "make_quadrature"):          # basix 0.11: (cell, degree, rule=)
+        points, weights = basix.make_quadrature(cell, degree, rule=rule_type)
+    else:                                                     # basix 0.5: (rule, cell, degree)
+        points, weights = basix.make_quadrature(rule_type, cell, degree)
     return np.asarray(points), np.asarray(weights)
 
 

@@ -69,6 +69,13 @@ def test_cbox_outputs(tmp_path):
         assert (tmp_path / name).stat().st_size > 0, name
 
 
+def test_cbox_lobatto_medium(tmp_path):
+    """--medium-quadrature lobatto: the Q2 FEM integrates the medium at its nodes; summary.json says so."""
+    proc = run_demo("cbox", *SMALL, "--method", "fem", "--medium-quadrature", "lobatto", out=tmp_path)
+    assert proc.returncode == 0, report(proc)
+    assert read_summary(tmp_path).parameters["medium_quadrature"] == "lobatto"
+
+
 @pytest.mark.parametrize("args, message", [
     (["--steps", "0"], "argument --steps: must be an integer >= 1"),
     (["--gamma", "-1"], "argument --gamma: must be a number > 0"),
@@ -79,6 +86,9 @@ def test_cbox_outputs(tmp_path):
     (["--method", "fem", "--fem-jump-penalty", "0"], "argument --fem-jump-penalty: must be a number > 0"),
     (["--fem-cells", "triangles"], "--fem-cells needs --method fem"),
     (["--method", "fem", "--fem-cells", "hexagons"], "argument --fem-cells: invalid choice"),
+    (["--medium-quadrature", "lobatto"], "quadrature='lobatto' is not available with the SFVEM"),
+    (["--method", "fem", "--fem-cells", "triangles", "--medium-quadrature", "lobatto"],
+     "quadrature='lobatto' is not available on P2 triangles"),
 ])
 def test_cbox_rejects_bad_input(tmp_path, args, message):
     proc = run_demo("cbox", *args, out=tmp_path)

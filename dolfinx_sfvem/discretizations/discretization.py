@@ -21,7 +21,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx_sfvem.physics.energy import Energy
+from dolfinx_sfvem.physics.energy import QUADRATURES, Energy
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh, CellOutlines
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
@@ -65,8 +65,17 @@ class AssemblyInfo:
         return self.min_J > 0.0 and self.folded == 0 and bool(np.isfinite(self.energy))
 
 
-def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) -> None:
-    """Every region tag of the mesh has an energy, and every energy's tag exists (ValueError otherwise)."""
+#: why the SFVEM refuses :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` "lobatto" (the words after
+#: "is not available" in :func:`check_materials`' message)
+SFVEM_NO_LOBATTO = ("with the SFVEM (method='vem'), which integrates its projections with its own polygon and "
+                    "polyhedron rules; the Gauss-Lobatto rule at the nodes is an option of method='fem' on Q2 cells")
+
+
+def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy],
+                    quadratures: typing.Collection[str] = QUADRATURES, unavailable: str = "") -> None:
+    """Every region tag of the mesh has an energy, every energy's tag exists, and every energy's
+    :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` is one of ``quadratures``, those the
+    discretization has (ValueError otherwise; ``unavailable`` says why the others are missing)."""
     present = set(np.unique(tags).tolist())
     missing = sorted(present - set(materials))
     if missing:
@@ -78,6 +87,9 @@ def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy]) ->
     for tag, energy in materials.items():
         if not isinstance(energy, Energy):
             raise ValueError(f"material of region {tag} must be an Energy, got {type(energy).__name__}")
+        if energy.quadrature not in quadratures:
+            raise ValueError(f"{energy.name} of region {tag}: quadrature={energy.quadrature!r} is not available "
+                             f"{unavailable}; available: {list(quadratures)}")
 
 
 def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:

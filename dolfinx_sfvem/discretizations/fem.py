@@ -23,7 +23,11 @@ linear and G constant in a P2 triangle, so the small-strain part of every energy
 linear-elastic tangent are polynomials of degree 2, the regularizations' G:G of degree 0 and the
 P2 mass matrix (body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
 orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan); 3 x 3 Gauss is exact for
-the Q2 linear-elastic part on parallelograms.
+the Q2 linear-elastic part on parallelograms. A region whose energy asks for
+``quadrature="lobatto"`` (:attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature`) is integrated
+with the Gauss-Lobatto rule :data:`LOBATTO_RULE` instead, whose points are the Q2 nodes
+(quadrilaterals and hexahedra only): ψ and ln J are then evaluated at the cell's corners, where a
+squeezed cell turns over first, and J > 0 there is what the guard asks of that region.
 
 The second gradient is cell-wise: a field that kinks along an element edge carries no
 regularization energy there, so in strong compression the FEM medium can fold along element
@@ -66,6 +70,12 @@ log = logging.getLogger(__name__)
 QUADRATURE_DEGREE = 4
 #: degree of the rule used by :meth:`LagrangeDiscretization.error_norms`
 ERROR_QUADRATURE_DEGREE = 8
+#: FFCx's name and the degree of the rule of the energies with ``quadrature="lobatto"``
+#: (:attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature`): Gauss-Lobatto-Legendre with 3 points per
+#: direction, the Q2 nodes, exact for degree 3 per direction
+LOBATTO_RULE = ("GLL", 3)
+#: the cells that have :data:`LOBATTO_RULE`
+LOBATTO_CELLS = ("quadrilateral", "hexahedron")
 
 #: cell type -> the vertices (DOLFINx's local numbering) of the reference edges that carry the
 #: degree-2 dofs n_vertices + k (a triangle's dof 3 + k on the edge opposite vertex k; a Q2
@@ -172,7 +182,11 @@ class LagrangeDiscretization(Discretization):
         points, cells, tags, point_of_node = gather_cells(mesh, self.cell_tag, self.comm)
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
-        check_materials(tags, materials)
+        if _cell_type(mesh) in LOBATTO_CELLS:
+            check_materials(tags, materials)
+        else:
+            check_materials(tags, materials, ("gauss",), f"on P2 {_cell_type(mesh)}s: the Gauss-Lobatto rule at the "
+                                                         "nodes is that of Q2 quadrilaterals and hexahedra")
         if tdim == 2:
             self._output_mesh = PolygonMesh(points, cells[:, _compat.COUNTER_CLOCKWISE[cells.shape[1]]], tags,
                                             insert_hanging_nodes=False)
@@ -222,6 +236,18 @@ class LagrangeDiscretization(Discretization):
         self.x_nodes = self.V.tabulate_dof_coordinates()[:n_nodes, :self.gdim].copy()
         self.global_nodes = np.asarray(im.local_to_global(np.arange(n_nodes, dtype=np.int32)), dtype=np.int64)
 
+    def _rule(self, energy: Energy) -> tuple[str, int]:
+        """(FFCx's rule name, degree) of the quadrature of a region with ``energy``: basix's default
+        rule of :attr:`quadrature_degree`, or :data:`LOBATTO_RULE` for ``quadrature="lobatto"``."""
+        return LOBATTO_RULE if energy.quadrature == "lobatto" else ("default", self.quadrature_degree)
+
+    def _region_dx(self, cell_tags, tag: int) -> ufl.Measure:
+        """The measure of region ``tag`` with its energy's rule (:meth:`_rule`)."""
+        name, degree = self._rule(self.materials[tag])
+        metadata = {"quadrature_degree": degree} if name == "default" else \
+            {"quadrature_rule": name, "quadrature_degree": degree}
+        return ufl.Measure("dx", domain=self.mesh, subdomain_data=cell_tags, metadata=metadata)(tag)
+
     def _build_forms(self, cell_tags) -> None:
         """Π, its residual and tangent as compiled forms; det F at the quadrature points."""
         mesh, q = self.mesh, self.quadrature_degree
@@ -229,12 +255,13 @@ class LagrangeDiscretization(Discretization):
         F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(u))
         G = ufl.grad(ufl.grad(u))
         self.dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags, metadata={"quadrature_degree": q})
+        self._dx = {tag: self._region_dx(cell_tags, tag) for tag in self.materials}
         self._constants = {tag: {name: dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
                                  for name, value in energy.params.items()}
                            for tag, energy in self.materials.items()}
-        Pi = sum(energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items())
-        Pi = Pi + sum(term.energy.psi(F, G, constants) * self.dx(term.tag) for term, constants in self._terms)
-        medium = [energy.psi(F, G, self._constants[tag]) * self.dx(tag) for tag, energy in self.materials.items()
+        Pi = sum(energy.psi(F, G, self._constants[tag]) * self._dx[tag] for tag, energy in self.materials.items())
+        Pi = Pi + sum(term.energy.psi(F, G, constants) * self._dx[term.tag] for term, constants in self._terms)
+        medium = [energy.psi(F, G, self._constants[tag]) * self._dx[tag] for tag, energy in self.materials.items()
                   if energy.is_medium]
         self._medium_ufl = ufl.derivative(sum(medium), u, v) if medium else None
         self._medium_form = None                   # compiled when first used (:meth:`medium_force`)
@@ -244,11 +271,10 @@ class LagrangeDiscretization(Discretization):
         self._energy_form = compiled_form(Pi)
         self._residual_form = compiled_form(residual)
         self._tangent_form = compiled_form(ufl.derivative(residual, u, du))
-        points, _ = _compat.reference_quadrature(mesh, q)
         cell = _cell_type(mesh)
-        self._n_quadrature_points = points.shape[0]
-        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, np.concatenate([points, _reference_nodes(cell)]))
         self._owned_cells = np.arange(_compat.num_owned_cells(mesh), dtype=np.int32)
+        points, self._own_points = self._quadrature_points()
+        self._det_F = _compat.CompiledExpression(ufl.det(F), mesh, np.concatenate([points, _reference_nodes(cell)]))
         self._solid = np.isin(self.cell_tag[self._owned_cells],
                               [tag for tag, energy in self.materials.items() if not energy.is_medium])
         self._cell_input_index = _compat.original_cell_index(mesh)
@@ -264,6 +290,17 @@ class LagrangeDiscretization(Discretization):
         self._error_terms = None
         self._term_forms: dict[int, tuple] = {}       # the terms' own forms (:meth:`term_force`)
         self._stress_expressions = None                # F and P per region (:meth:`cell_stress`)
+
+    def _quadrature_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The reference points of the rules of all regions (:meth:`_rule`), stacked (n, tdim), and
+        which of them are the rule of each owned cell's region ((n_owned_cells, n) bool)."""
+        rule_of_tag = {tag: self._rule(energy) for tag, energy in self.materials.items()}
+        rules = sorted(set(rule_of_tag.values()))
+        points = [_compat.reference_quadrature(self.mesh, degree, name)[0] for name, degree in rules]
+        rule_of_point = np.repeat(np.arange(len(rules)), [p.shape[0] for p in points])
+        rule_of_cell = np.array([rules.index(rule_of_tag[tag]) for tag in self.cell_tag[self._owned_cells]],
+                                dtype=np.int64).reshape(-1)
+        return np.concatenate(points), rule_of_cell[:, None] == rule_of_point[None, :]
 
     def _jump_energy(self, eta: float) -> ufl.Form:
         """C0 interior-penalty energy on the interior facets e of each gradient region:
@@ -335,7 +372,7 @@ class LagrangeDiscretization(Discretization):
         if index not in self._term_forms:
             unit = {name: dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0)) for name in term.params}
             F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(self.u))
-            energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self.dx(term.tag)
+            energy = term.energy.psi(F, ufl.grad(ufl.grad(self.u)), unit) * self._dx[term.tag]
             self._term_forms[index] = (unit, compiled_form(energy),
                                        compiled_form(ufl.derivative(energy, self.u, ufl.TestFunction(self.V))))
         unit, energy_form, force_form = self._term_forms[index]
@@ -447,7 +484,8 @@ class LagrangeDiscretization(Discretization):
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         energy = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._energy_form), op=MPI.SUM)
         J_all = self._det_F(self._owned_cells)[:, :, 0]
-        J, J_nodes = J_all[:, :self._n_quadrature_points], J_all[:, self._n_quadrature_points:]
+        n_points = self._own_points.shape[1]
+        J, J_nodes = np.where(self._own_points, J_all[:, :n_points], np.inf), J_all[:, n_points:]
         cell = int(np.argmin(J.min(axis=1))) if J.size else -1
         local_min = float(J[cell].min()) if J.size else np.inf
         min_J, rank = self.comm.allreduce((local_min, self.comm.rank), op=MPI.MINLOC)

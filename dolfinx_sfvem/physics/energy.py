@@ -32,6 +32,11 @@ Bound = tuple[float, bool] | None
 POSITIVE: Bound = (0.0, True)
 NON_NEGATIVE: Bound = (0.0, False)
 
+#: The quadrature rules an energy may ask of a discretization (:attr:`Energy.quadrature`):
+#: "gauss", the discretization's own rule, or "lobatto", Gauss-Lobatto points at the element's
+#: nodes (the FEM's Q2 quadrilaterals and hexahedra only).
+QUADRATURES = ("gauss", "lobatto")
+
 
 # --------------------------------------------------------------------------- kinematics
 def dim(F: Expr) -> int:
@@ -164,10 +169,16 @@ class Energy:
         True for a third medium: its elements may be squeezed flat between solids in
         contact, and it is not a body whose overlap with others is measured
         (:mod:`~dolfinx_sfvem.physics.contact`, :mod:`~dolfinx_sfvem.discretizations.injectivity`).
+    quadrature : str
+        A key of :data:`QUADRATURES`: where Psi is integrated. "gauss" (the default): the
+        discretization's own rule; "lobatto": the Gauss-Lobatto rule whose points are the nodes of
+        the FEM's Q2 cells, so that Psi (and ln J) is evaluated where the element can turn over
+        first (its corners); the discretizations that have no such rule refuse it.
     """
 
     uses_gradient: bool = True
     is_medium: bool = False
+    quadrature: str = "gauss"
 
     def __init__(self, params: Mapping[str, float], bounds: Mapping[str, Bound]):
         self._bounds = dict(bounds)
@@ -289,15 +300,21 @@ class ThirdMedium(Energy):
     n_dim : int or None
         ``n_dim`` of Eq. 9 (``"huhu_lulu"`` only); None (default): the dimension of the mesh.
         2 on a 3D mesh gives the 3D energy that equals the 2D one in plane strain.
+    quadrature : str
+        ``"gauss"`` (default) or ``"lobatto"``: see :attr:`Energy.quadrature`. The energy is the
+        same; only where the FEM integrates it changes (the Q2 nodes instead of the Gauss points).
     """
 
     is_medium = True
 
     def __init__(self, mu: float, gamma: float, alpha_r: float, regularization: str = "rotation",
-                 beta: float | None = None, K: float = 0.0, n_dim: int | None = None):
+                 beta: float | None = None, K: float = 0.0, n_dim: int | None = None, quadrature: str = "gauss"):
         if regularization not in REGULARIZATIONS:
             raise ValueError(f"ThirdMedium: unknown regularization {regularization!r}; "
                              f"valid: {sorted(REGULARIZATIONS)}")
+        if quadrature not in QUADRATURES:
+            raise ValueError(f"ThirdMedium: unknown quadrature {quadrature!r}; valid: {list(QUADRATURES)}")
+        self.quadrature = quadrature
         if n_dim is not None and (regularization != "huhu_lulu" or n_dim not in (2, 3)):
             raise ValueError(f"ThirdMedium: n_dim={n_dim!r} is a parameter of the 'huhu_lulu' "
                              "regularization (Eq. 9) and must be 2 or 3")
@@ -329,7 +346,8 @@ class ThirdMedium(Energy):
     @property
     def name(self) -> str:
         n_dim = "" if self.n_dim is None else f", n_dim={self.n_dim}"
-        return f"ThirdMedium[{self.regularization}{n_dim}]"
+        quadrature = "" if self.quadrature == "gauss" else f", {self.quadrature}"
+        return f"ThirdMedium[{self.regularization}{n_dim}{quadrature}]"
 
 
 class UserEnergy(Energy):
