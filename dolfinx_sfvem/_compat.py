@@ -12,7 +12,9 @@ kernel's argument count), never by comparing version strings. The rest of the pa
 - vector spaces, index maps and ghosted PETSc vectors (:func:`vector_function_space`,
   :func:`create_index_map`, :func:`create_petsc_vector`), ``atan2`` in UFL,
 - JIT compilation of a UFL expression into a C function and the call of that function from
-  Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`),
+  Python and numba (:func:`compile_pointwise_expression`, :func:`call_kernel`), the FFCx module
+  of a compiled form (:func:`form_module_name`) and the coordinate element FFCx 0.5 would change
+  under the forms' signatures (:func:`settle_coordinate_element`),
 - PETSc functions that petsc4py 3.18 does not wrap (COO assembly, SNES domain errors), called
   through ctypes on the object handles, and option defaults that keep PETSc's behaviour
   (:data:`PETSC_OPTION_DEFAULTS`),
@@ -134,11 +136,41 @@ def coordinate_domain(cell: str, gdim: int = 2) -> ufl.Mesh:
     return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(gdim,)))
 
 
+def _equispaced(element: ufl.VectorElement) -> ufl.VectorElement:
+    """The UFL vector element ``element`` with the Lagrange variant "equispaced", built as FFCx 0.5
+    builds it (``ffcx/analysis.py``), so that its repr is the one FFCx would give it."""
+    sub = element.sub_elements()[0]
+    return ufl.VectorElement(ufl.FiniteElement(sub.family(), sub.cell(), sub.degree(), sub.quadrature_scheme(),
+                                               variant="equispaced"), dim=element.value_shape()[0])
+
+
+def settle_coordinate_element(mesh: dolfinx.mesh.Mesh) -> None:
+    """Give the coordinate element of ``mesh`` the Lagrange variant FFCx would give it, before any
+    form on the mesh is built.
+
+    Contract: afterwards the signature of every form and expression on ``mesh``, and so its FFCx
+    module name, depends on the form alone, not on what the process compiled before.
+
+    FFCx 0.5 (DOLFINx 0.5.2), when it compiles a form from scratch (not when it finds the
+    module in its cache), sets the variant of a UFL coordinate element that has none to
+    "equispaced", in place (``ffcx/analysis.py``, ``ffcx/ir/representation.py``). The element's
+    repr is part of every signature, so without this call a form's module name would depend on
+    whether an earlier form of the process missed the cache. For a degree-1 element every variant
+    has the same basis: the geometry does not change. Basix's elements (DOLFINx 0.11) carry
+    their variant and FFCx leaves them alone: nothing to do there.
+    """
+    domain = mesh.ufl_domain()
+    element = domain.ufl_coordinate_element()
+    if _basix_ufl is None and element.variant() is None:
+        domain._ufl_coordinate_element = _equispaced(element)
+
+
 def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], cell: str,
                  ghost_mode: dolfinx.mesh.GhostMode,
                  destinations: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None
                  ) -> dolfinx.mesh.Mesh:
-    """Distributed affine mesh of ``cell`` s.
+    """Distributed affine mesh of ``cell`` s, its coordinate element settled
+    (:func:`settle_coordinate_element`).
 
     Parameters
     ----------
@@ -163,8 +195,11 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
     else:
         partitioner = dolfinx.mesh.create_cell_partitioner(ghost_mode, 2)
     if _CREATE_MESH_TAKES_GHOST_MODE:
-        return dolfinx.mesh.create_mesh(comm, cells, x, domain, ghost_mode=ghost_mode, partitioner=partitioner)
-    return dolfinx.mesh.create_mesh(comm, cells, domain, x, partitioner=partitioner)
+        mesh = dolfinx.mesh.create_mesh(comm, cells, x, domain, ghost_mode=ghost_mode, partitioner=partitioner)
+    else:
+        mesh = dolfinx.mesh.create_mesh(comm, cells, domain, x, partitioner=partitioner)
+    settle_coordinate_element(mesh)
+    return mesh
 
 
 def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
@@ -336,6 +371,26 @@ def atan2(y: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
 
 
 # --------------------------------------------------------------------------- JIT
+class _DlInfo(ctypes.Structure):
+    """``Dl_info`` of ``dladdr`` (dlfcn.h)."""
+    _fields_ = [("dli_fname", ctypes.c_char_p), ("dli_fbase", ctypes.c_void_p),
+                ("dli_sname", ctypes.c_char_p), ("dli_saddr", ctypes.c_void_p)]
+
+
+def form_module_name(form: dolfinx.fem.Form) -> str:
+    """The name of the FFCx module that holds a compiled form's code (``libffcx_forms_<hash>``):
+    the file name, up to its first dot, of the shared library the dynamic linker finds the form's
+    ``ufcx_form`` struct in (``dladdr``). The same on both stacks: DOLFINx 0.5's form does not
+    keep its module, only the struct."""
+    import cffi
+    ffi = cffi.FFI()
+    info = _DlInfo()
+    address = int(ffi.cast("uintptr_t", ffi.addressof(form.ufcx_form)))
+    if not ctypes.CDLL(None).dladdr(ctypes.c_void_p(address), ctypes.byref(info)) or not info.dli_fname:
+        raise RuntimeError(f"no shared library holds the form at {address:#x}")
+    return pathlib.Path(info.dli_fname.decode()).name.split(".")[0]
+
+
 def compile_pointwise_expression(comm: MPI.Comm, expression: ufl.core.expr.Expr):
     """Compile a spatially constant UFL expression of ``ufl.Constant`` s with FFCx.
 

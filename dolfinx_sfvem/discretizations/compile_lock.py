@@ -22,11 +22,11 @@ renames the ``.c`` files it started and did not finish to ``.c.failed``, as FFCx
 ``compile_expressions``, ``compile_elements``, as DOLFINx calls them, with their ``cache_dir``)
 while the package compiles, so every rank takes it around its own compile or cache load only. In
 an MPI job DOLFINx compiles on rank 0 and then lets the other ranks load the module (its
-``mpi_jit_decorator``); that load is a compile of its own when a rank's form has another signature
-than rank 0's, which UFL gives the FEM's residual and tangent forms in some processes (the same
-form, its terms in another order: the module names differ between processes and between the ranks
-of one job). A lock held across DOLFINx's collective
-instead would deadlock (a rank holding it while rank 0 waits for it).
+``mpi_jit_decorator``); that load is a compile of its own whenever a rank's module name differs
+from rank 0's (under DOLFINx 0.5.2 it did for the FEM's residual and tangent until the coordinate
+element was settled up front: :func:`~dolfinx_sfvem._compat.settle_coordinate_element`). A lock
+held across DOLFINx's collective instead would deadlock (a rank holding it while rank 0 waits for
+it).
 """
 from __future__ import annotations
 

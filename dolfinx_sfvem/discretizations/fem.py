@@ -166,6 +166,7 @@ class LagrangeDiscretization(Discretization):
         if jump_penalty is not None and not (np.isfinite(jump_penalty) and jump_penalty > 0.0):
             raise ValueError(f"jump_penalty must be a positive number, not {jump_penalty!r}")
         self.comm = comm if comm is not None else mesh.comm
+        _compat.settle_coordinate_element(mesh)          # module names independent of earlier compiles
         self.mesh = mesh
         self.quadrature_degree = int(quadrature_degree)
         self.mesh_size = mesh_size
@@ -301,6 +302,15 @@ class LagrangeDiscretization(Discretization):
         rule_of_cell = np.array([rules.index(rule_of_tag[tag]) for tag in self.cell_tag[self._owned_cells]],
                                 dtype=np.int64).reshape(-1)
         return np.concatenate(points), rule_of_cell[:, None] == rule_of_point[None, :]
+
+    def module_names(self) -> dict[str, str]:
+        """The FFCx module of each form compiled at set-up: ``"energy"``, ``"residual"``,
+        ``"tangent"`` -> ``libffcx_forms_<hash>``. The names depend on the regions' energies,
+        the cell type and the quadrature degree only: the same in every process, whatever it
+        compiled before, for any mesh of those cells and any parameter values (Constants), so a
+        second run finds the modules in the cache."""
+        return {name: _compat.form_module_name(form) for name, form in
+                (("energy", self._energy_form), ("residual", self._residual_form), ("tangent", self._tangent_form))}
 
     def _jump_energy(self, eta: float) -> ufl.Form:
         """C0 interior-penalty energy on the interior facets e of each gradient region:
