@@ -23,10 +23,9 @@ renames the ``.c`` files it started and did not finish to ``.c.failed``, as FFCx
 while the package compiles, so every rank takes it around its own compile or cache load only. In
 an MPI job DOLFINx compiles on rank 0 and then lets the other ranks load the module (its
 ``mpi_jit_decorator``); that load is a compile of its own whenever a rank's module name differs
-from rank 0's (under DOLFINx 0.5.2 it did for the FEM's residual and tangent until the coordinate
-element was settled up front: :func:`~dolfinx_sfvem._compat.settle_coordinate_element`). A lock
-held across DOLFINx's collective instead would deadlock (a rank holding it while rank 0 waits for
-it).
+from rank 0's (the package's forms keep one name on every rank:
+:func:`~dolfinx_sfvem._compat.settle_coordinate_element`; a user's forms may not). A lock held
+across DOLFINx's collective instead would deadlock (a rank holding it while rank 0 waits for it).
 """
 from __future__ import annotations
 
