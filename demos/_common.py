@@ -49,7 +49,7 @@ from mpi4py import MPI
 
 import dolfinx_sfvem as sf
 from dolfinx_sfvem.output import last_word
-from dolfinx_sfvem.path_following.interrupt import raise_interrupted, signal_of
+from dolfinx_sfvem.path_following.interrupt import interrupt_in, raise_interrupted, signal_of
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX, options_from_tokens
 from dolfinx_sfvem.physics.energy import QUADRATURES
 
@@ -379,13 +379,22 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
     try:
         return main(argv)
     except (ValueError, sf.SolveFailed) as err:
+        if (interrupt := interrupt_in(err)) is not None:
+            return _interrupted(comm, interrupt)
         return _end(comm, f"error: {err}", 2)
     except KeyboardInterrupt as err:
-        signum = signal_of(err)
-        return _end(comm, f"interrupted by signal {signum} ({signal.Signals(signum).name})", 128 + signum)
+        return _interrupted(comm, err)
     except Exception as err:
+        if (interrupt := interrupt_in(err)) is not None:       # wrapped by the code it interrupted
+            return _interrupted(comm, interrupt)
         traceback.print_exc()
         return _end(comm, crash_message(err), CRASHED)
+
+
+def _interrupted(comm: MPI.Comm, interrupt: KeyboardInterrupt) -> int:
+    """:func:`_end` of a run interrupted by a signal: exit code 128 + its number."""
+    signum = signal_of(interrupt)
+    return _end(comm, f"interrupted by signal {signum} ({signal.Signals(signum).name})", 128 + signum)
 
 
 def _end(comm: MPI.Comm, text: str, code: int) -> int:

@@ -152,6 +152,21 @@ def test_a_second_signal_ends_with_one_line_and_the_shells_exit_code(capsys, rai
     assert capsys.readouterr().err.strip() == f"interrupted by signal {name}"
 
 
+def test_an_interrupt_wrapped_by_the_code_it_interrupted_is_still_an_interrupt(capsys):
+    """A second SIGTERM that lands in code which wraps exceptions (Python's class creation raises
+    RuntimeError from it): the same one line and exit code 143, no traceback."""
+    common = load_common()
+
+    def main(argv):
+        try:
+            raise interrupt.Interrupted(signal.SIGTERM)
+        except KeyboardInterrupt as err:
+            raise RuntimeError("Error calling __set_name__") from err
+
+    assert common.exit_code(main) == 143
+    assert capsys.readouterr().err.strip() == "interrupted by signal 15 (SIGTERM)"
+
+
 def test_an_unexpected_error_ends_with_what_and_where(capsys):
     """Any other exception: its traceback, then a last line naming it and the line that raised it,
     and exit code 3."""

@@ -55,6 +55,20 @@ def raise_interrupted(signum: int, frame) -> None:
     raise Interrupted(signum)
 
 
+def interrupt_in(err: BaseException) -> KeyboardInterrupt | None:
+    """The ``KeyboardInterrupt`` that ``err`` is or was raised from (its ``__cause__`` /
+    ``__context__`` chain), None if there is none: code that the signal handler interrupted may
+    wrap the interrupt into an exception of its own (e.g. a ``RuntimeError`` of Python's class
+    creation)."""
+    seen = set()
+    while err is not None and id(err) not in seen:
+        if isinstance(err, KeyboardInterrupt):
+            return err
+        seen.add(id(err))
+        err = err.__cause__ or err.__context__
+    return None
+
+
 def signal_of(interrupt: KeyboardInterrupt) -> int:
     """The signal number of a ``KeyboardInterrupt``: an :class:`Interrupted`'s own, SIGINT for
     any other (Python raises those on Ctrl-C where no handler is installed)."""
