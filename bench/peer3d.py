@@ -27,9 +27,9 @@ import argparse
 import dataclasses
 import datetime
 import json
+import os
 import pathlib
 import re
-import resource
 import subprocess
 import sys
 import tempfile
@@ -77,13 +77,16 @@ class Run:
 
 def run_measured(argv: list[str], cwd: pathlib.Path) -> tuple[subprocess.CompletedProcess, float, float]:
     """Run ``argv`` in ``cwd``: (the finished process, its CPU seconds, its peak resident memory in
-    GB). The CPU time is that of all children this process waited for so far, taken as a
-    difference; the memory, the largest child's so far (ours run first, then the peer's)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, env=job_environment())
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
-    return proc, cpu, after.ru_maxrss / 1024 ** 2
+    GB), both from the resource usage of this process alone (``os.wait4``; its own children that it
+    waited for included), not of the runs before it."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        child = subprocess.Popen(argv, cwd=cwd, stdout=out, stderr=err, text=True, env=job_environment())
+        _, status, usage = os.wait4(child.pid, 0)
+        child.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        proc = subprocess.CompletedProcess(argv, child.returncode, out.read(), err.read())
+    return proc, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024 ** 2
 
 
 def wall_time_to(steps: typing.Sequence[dict], load: float) -> float | None:

@@ -1,6 +1,9 @@
 """bench/peer3d.py's readings of a run, from outputs made up here (no solve)."""
 from __future__ import annotations
 
+import pathlib
+import sys
+
 import peer3d as bench
 
 #: the lines of a dolfiny demo that the bench reads (PETSc 3.25's converged-reason lines carry the prefix)
@@ -29,3 +32,16 @@ def test_our_time_to_the_peers_load_includes_the_failed_attempts_before():
     assert bench.wall_time_to(steps, 0.85) == 6.0
     assert bench.wall_time_to(steps, 1.0) == 10.0
     assert bench.wall_time_to(steps[:2], 0.85) is None
+
+
+def test_each_run_is_measured_alone(tmp_path):
+    """A small run after a large one reports its own peak memory and CPU time, not the larger
+    run's (the usage of all children together would). A child's peak counts the pages it shares
+    with this process until it execs, so only the difference is asserted."""
+    large, cpu_large, memory_large = bench.run_measured(
+        [sys.executable, "-c", "x = b'1' * (800 * 2**20); print('done')"],
+        tmp_path)
+    small, cpu_small, memory_small = bench.run_measured([sys.executable, "-c", "print('small')"], pathlib.Path(tmp_path))
+    assert large.returncode == small.returncode == 0 and large.stdout == "done\n" and small.stdout == "small\n"
+    assert memory_large - memory_small > 0.5, (memory_large, memory_small)   # most of the 0.78 GiB, not the larger run's peak
+    assert 0 < cpu_small < cpu_large + 1.0
