@@ -378,15 +378,13 @@ def exit_code(main: typing.Callable[[typing.Sequence[str] | None], int],
         signal.signal(signal.SIGTERM, raise_interrupted)     # the load path's StopRequest takes over during it
     try:
         return main(argv)
-    except (ValueError, sf.SolveFailed) as err:
-        if (interrupt := interrupt_in(err)) is not None:
-            return _interrupted(comm, interrupt)
-        return _end(comm, f"error: {err}", 2)
     except KeyboardInterrupt as err:
         return _interrupted(comm, err)
     except Exception as err:
         if (interrupt := interrupt_in(err)) is not None:       # wrapped by the code it interrupted
             return _interrupted(comm, interrupt)
+        if isinstance(err, (ValueError, sf.SolveFailed)):
+            return _end(comm, f"error: {err}", 2)
         traceback.print_exc()
         return _end(comm, crash_message(err), CRASHED)
 

@@ -272,12 +272,6 @@ class RunSummary:
         return sum(s.newton_iterations for s in self.steps)
 
     @property
-    def failed_share(self) -> float:
-        """The share of the Newton iterations spent in attempts that were not accepted
-        (:func:`newton_economy`)."""
-        return newton_economy([dataclasses.asdict(s) for s in self.steps])["failed_share"]
-
-    @property
     def interrupted(self) -> bool:
         """Killed between steps or stopped by a signal, i.e. ``solve(..., resume=True)`` continues it."""
         return self.message == RUNNING or self.message.startswith(STOPPED_BY_SIGNAL)

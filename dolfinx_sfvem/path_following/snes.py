@@ -400,8 +400,7 @@ class SNESNewton:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         info = self.equilibrium.residual(x, b)
         self.rejected += not info.admissible
-        if self.rejected > MAX_REJECTED:
-            self.abandoned = self.abandon_reason()
+        self.abandoned = self.abandoned or self.abandon_reason()
         if self.worst_info is None or _worse(info, self.worst_info):
             self.worst_info = info
         b.copy(self.force)
@@ -518,8 +517,7 @@ class SNESNewton:
         self.history.append(float(norm))
         if self._merit and norm < MERIT_SWITCH * self.history[0]:
             self._merit = False
-        if not self.abandoned and stalled(self.history):
-            self.abandoned = self.abandon_reason()
+        self.abandoned = self.abandoned or self.abandon_reason()
 
     def abandon_reason(self) -> str:
         """Why the current solve is abandoned, or "" (module docstring): too many trial states
