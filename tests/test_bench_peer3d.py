@@ -1,10 +1,14 @@
 """bench/peer3d.py's readings of a run, from outputs made up here (no solve)."""
 from __future__ import annotations
 
+import json
 import pathlib
+import subprocess
 import sys
 
 import peer3d as bench
+
+BENCH = pathlib.Path(bench.__file__).resolve().parent
 
 #: the lines of a dolfiny demo that the bench reads (PETSc 3.25's converged-reason lines carry the prefix)
 PEER_OUTPUT = """Mesh: 7840 cells, 9225 nodes
@@ -36,12 +40,16 @@ def test_our_time_to_the_peers_load_includes_the_failed_attempts_before():
 
 def test_each_run_is_measured_alone(tmp_path):
     """A small run after a large one reports its own peak memory and CPU time, not the larger
-    run's (the usage of all children together would). A child's peak counts the pages it shares
-    with this process until it execs, so only the difference is asserted."""
-    large, cpu_large, memory_large = bench.run_measured(
-        [sys.executable, "-c", "x = b'1' * (800 * 2**20); print('done')"],
-        tmp_path)
-    small, cpu_small, memory_small = bench.run_measured([sys.executable, "-c", "print('small')"], pathlib.Path(tmp_path))
-    assert large.returncode == small.returncode == 0 and large.stdout == "done\n" and small.stdout == "small\n"
-    assert memory_large - memory_small > 0.5, (memory_large, memory_small)   # most of the 0.78 GiB, not the larger run's peak
+    run's (the usage of all children together would). Measured from a fresh interpreter: a child's
+    peak counts the pages it shares with its parent until it execs, so the parent must be small."""
+    script = (f"import json, pathlib, sys; sys.path.insert(0, {str(BENCH)!r}); import peer3d\n"
+              "large = peer3d.run_measured([sys.executable, '-c', \"x = b'1' * (800 * 2**20); print('done')\"], "
+              "pathlib.Path('.'))\n"
+              "small = peer3d.run_measured([sys.executable, '-c', \"print('small')\"], pathlib.Path('.'))\n"
+              "print(json.dumps([[p.returncode, p.stdout, cpu, memory] for p, cpu, memory in (large, small)]))")
+    out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, check=True)
+    (code_large, out_large, cpu_large, memory_large), (code_small, out_small, cpu_small, memory_small) = \
+        json.loads(out.stdout.splitlines()[-1])
+    assert code_large == code_small == 0 and out_large == "done\n" and out_small == "small\n"
+    assert memory_large - memory_small > 0.5, (memory_large, memory_small)   # most of the 0.78 GiB
     assert 0 < cpu_small < cpu_large + 1.0
