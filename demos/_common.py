@@ -141,6 +141,9 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
     p.add_argument("--beta", type=non_negative_float, default=beta,
                    help="exponent of the exp(-beta J) scaling of the regularization "
                         f"(default {'off' if beta is None else '%(default)s'})")
+    p.add_argument("--beta1", type=non_negative_float, default=None,
+                   help="weight of the medium's skew penalty beta1/2 |w(F)|^2, not scaled by gamma (the local part of "
+                        "Wriggers et al. 2025's rotation regularization; docs/guide/medium.md; default: none)")
     p.add_argument("--medium-quadrature", choices=QUADRATURES, default=QUADRATURES[0],
                    help="where the medium's energy is integrated: its Gauss points, or 'lobatto': the Gauss-Lobatto "
                         "points, which are the nodes of Q2 cells (--method fem on quadrilaterals or hexahedra only; "
@@ -251,9 +254,9 @@ def discretization(args: argparse.Namespace) -> dict:
 
 def third_medium(args: argparse.Namespace, mu: float, K: float = 0.0) -> sf.ThirdMedium:
     """The third medium of shear modulus ``mu`` and bulk modulus ``K`` with the command line's
-    ``--gamma --alpha-r --regularization --beta --medium-quadrature``."""
+    ``--gamma --alpha-r --regularization --beta --medium-quadrature --beta1``."""
     return sf.ThirdMedium(mu=mu, K=K, gamma=args.gamma, alpha_r=args.alpha_r, regularization=args.regularization,
-                          beta=args.beta, quadrature=args.medium_quadrature)
+                          beta=args.beta, quadrature=args.medium_quadrature, beta1=args.beta1)
 
 
 # --------------------------------------------------------------------------- markers and observers

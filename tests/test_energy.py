@@ -27,6 +27,7 @@ ENERGIES = {"solid": Hyperelastic(K=2.0, mu=0.7), "user": UserEnergy(user_psi, a
 for _reg in REGULARIZATIONS:
     ENERGIES[_reg] = medium(_reg)
     ENERGIES[f"{_reg}-scaled"] = medium(_reg, beta=5.0)
+ENERGIES["skew-penalty"] = medium("rotation", beta1=0.7)
 
 
 def state(seed):
@@ -126,6 +127,7 @@ def test_medium_energy_matches_paper(name):
     s = np.exp(-p["beta"] * np.linalg.det(F)) if "beta" in p else 1.0
     expected = p["gamma"] * (numpy_neo_hookean(F, p["K"], p["mu"])
                              + p["alpha_r"] * s * numpy_psi_r(energy.regularization, F, G))
+    expected += p.get("beta1", 0.0) / 2 * (F[0, 1] - F[1, 0]) ** 2
     assert evaluate_energy(energy, F, G)["psi"] == pytest.approx(expected, rel=1e-8)
 
 
@@ -244,3 +246,18 @@ def test_one_kernel_serves_every_parameter_value():
     F, G = state(10)
     psi = [evaluate(kernels, F, G, medium("rotation", gamma=gamma).params)["psi"] for gamma in (1.0, 1e-5)]
     assert psi[1] == pytest.approx(1e-5 * psi[0], rel=1e-13)  # Psi is linear in gamma (Eq. 3)
+
+
+# ---------------------------------------------------------------------------- skew penalty
+@pytest.mark.parametrize("theta", [0.3, 1.2])
+def test_skew_penalty_adds_beta1_half_w_squared(theta):
+    """beta1/2 |w|^2 outside gamma: a rotation by theta adds beta1/2 (2 sin theta)^2 to the same
+    medium without it, a stretch adds nothing, and the unregularized parameters drop it."""
+    plain, penalised = medium("rotation"), medium("rotation", beta1=0.7)
+    G = np.zeros((2, 2, 2))
+    for F, w in ((rotation_matrix(theta), 2 * np.sin(theta)), (np.diag([1.3, 0.8]), 0.0)):
+        added = evaluate_energy(penalised, F, G)["psi"] - evaluate_energy(plain, F, G)["psi"]
+        assert abs(added - 0.7 / 2 * w ** 2) <= 1e-12 * max(1.0, w ** 2), (F, added)
+    unregularized = penalised.unregularized_params()
+    assert unregularized["beta1"] == 0.0 and unregularized["alpha_r"] == 0.0
+    assert penalised.key != plain.key

@@ -303,12 +303,18 @@ class ThirdMedium(Energy):
     quadrature : str
         ``"gauss"`` (default) or ``"lobatto"``: see :attr:`Energy.quadrature`. The energy is the
         same; only where the FEM integrates it changes (the Q2 nodes instead of the Gauss points).
+    beta1 : float >= 0 or None
+        Weight of a skew penalty ``beta1/2 |w(F)|^2`` (w from :func:`skew_axial`), added outside
+        the factor gamma: the local part of the rotation regularization of Wriggers et al. 2025
+        (their Pi_R = beta1/2 |w - p/d|^2 + beta2/2 |grad p|^2 with the auxiliary field p = 0).
+        None (default): no such term.
     """
 
     is_medium = True
 
     def __init__(self, mu: float, gamma: float, alpha_r: float, regularization: str = "rotation",
-                 beta: float | None = None, K: float = 0.0, n_dim: int | None = None, quadrature: str = "gauss"):
+                 beta: float | None = None, K: float = 0.0, n_dim: int | None = None, quadrature: str = "gauss",
+                 beta1: float | None = None):
         if regularization not in REGULARIZATIONS:
             raise ValueError(f"ThirdMedium: unknown regularization {regularization!r}; "
                              f"valid: {sorted(REGULARIZATIONS)}")
@@ -326,22 +332,30 @@ class ThirdMedium(Energy):
         if self.scaled:
             params["beta"] = beta
             bounds["beta"] = NON_NEGATIVE
+        self.skew_penalty = beta1 is not None
+        if self.skew_penalty:
+            params["beta1"] = beta1
+            bounds["beta1"] = NON_NEGATIVE
         super().__init__(params, bounds)
 
     @property
     def key(self) -> Hashable:
-        return (ThirdMedium, REGULARIZATIONS[self.regularization], self.scaled, self.n_dim)
+        return (ThirdMedium, REGULARIZATIONS[self.regularization], self.scaled, self.n_dim, self.skew_penalty)
 
     def psi(self, F: Expr, G: Expr, p: Mapping[str, Expr]) -> Expr:
         s = ufl.exp(-p["beta"] * J(F)) if self.scaled else 1
         options = {} if self.n_dim is None else {"n_dim": self.n_dim}
         psi_r = REGULARIZATIONS[self.regularization](F, G, **options)
-        return p["gamma"] * (neo_hookean(F, p["K"], p["mu"]) + p["alpha_r"] * s * psi_r)
+        psi = p["gamma"] * (neo_hookean(F, p["K"], p["mu"]) + p["alpha_r"] * s * psi_r)
+        if self.skew_penalty:
+            w = skew_axial(F)
+            psi = psi + p["beta1"] / 2 * ufl.dot(w, w)
+        return psi
 
     def unregularized_params(self) -> dict[str, float]:
         """Its values with alpha_r = 0: Psi = gamma [K/2 (ln J)^2 + mu/2 (J^(-2/3) tr C - 3)], the
         neo-Hookean part of Eq. 3."""
-        return {**self.params, "alpha_r": 0.0}
+        return {**self.params, "alpha_r": 0.0, **({"beta1": 0.0} if self.skew_penalty else {})}
 
     @property
     def name(self) -> str:
