@@ -17,16 +17,21 @@ import inspect
 import pathlib
 import textwrap
 
+import numpy as np
 import pytest
+import ufl
+from petsc4py import PETSc
 
-import dolfinx_sfvem
+import dolfinx_sfvem as sf
+from dolfinx_sfvem.discretizations.compile_lock import compiled_form
 from dolfinx_sfvem.discretizations.discretization import Discretization
 from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
 from dolfinx_sfvem.discretizations.load_host import LoadHost
 from dolfinx_sfvem.discretizations.vem import SFVEMDiscretization
 from dolfinx_sfvem.discretizations.vem3d import PolyhedralDiscretization
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
 
-PACKAGE = pathlib.Path(dolfinx_sfvem.__file__).parent
+PACKAGE = pathlib.Path(sf.__file__).parent
 #: the modules whose uses of a discretization are checked
 USERS = sorted([*(PACKAGE / "physics").glob("*.py"), *(PACKAGE / "path_following").glob("*.py"),
                 *(PACKAGE / "output").glob("*.py"), PACKAGE / "problem.py"])
@@ -153,3 +158,34 @@ def test_every_discretization_defines_the_contract(cls):
 def test_the_two_contracts_do_not_overlap():
     """One meaning per name: a member is declared by one of them."""
     assert not members(Discretization) & members(LoadHost)
+
+
+def dense(A: PETSc.Mat) -> np.ndarray:
+    """The entries of A as an array (A itself unchanged: ``A.convert`` without a target converts A)."""
+    copy = A.convert("dense", PETSc.Mat())
+    values = copy.getDenseArray().copy()
+    copy.destroy()
+    return values
+
+
+@pytest.mark.parametrize("method", ["fem", "vem"])
+def test_a_load_host_scales_a_host_matrix(method, tiny3d):
+    """add_host_matrix(A, form, scale) adds scale times what it adds with the default scale 1, to
+    a tangent as the balance's tangent does."""
+    points, cells = tiny3d.hex_grid(1)
+    problem = sf.ContactProblem(CellMesh(points, cells, np.ones(len(cells)), "hexahedron"),
+                                {1: sf.Hyperelastic(K=1.0, mu=0.5)}, method=method, verbose=False)
+    disc = problem.disc
+    W = disc.load_space
+    form = compiled_form(ufl.inner(ufl.TrialFunction(W), ufl.TestFunction(W)) * ufl.ds(domain=disc.dolfinx_mesh))
+    added = []
+    for scale in ((), (-2.5,)):
+        A = disc.create_matrix()
+        disc.assemble_tangent(problem.x, A)
+        tangent = dense(A)
+        disc.add_host_matrix(A, form, *scale)
+        A.assemble()
+        added.append(dense(A) - tangent)
+        A.destroy()
+    assert np.abs(added[0]).max() > 0.0
+    np.testing.assert_allclose(added[1], -2.5 * added[0], rtol=1e-12, atol=1e-12 * np.abs(added[0]).max())
