@@ -246,7 +246,7 @@ class Discretization(abc.ABC):
     node_key: np.ndarray
     node_point: np.ndarray
     global_nodes: np.ndarray
-    element_loops: tuple[np.ndarray, np.ndarray, np.ndarray]
+    element_loops: tuple[np.ndarray, np.ndarray, np.ndarray] | None
     face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
     # ------------------------------------------------------------------ sizes

@@ -56,8 +56,8 @@ class LoadHost(typing.Protocol):
 
     @property
     def load_space(self) -> dolfinx.fem.FunctionSpace:
-        """The space (vector P2 on ``dolfinx_mesh``, block size 3)
-        on which the load forms are written."""
+        """The space on which the load forms are written: vector P2 (Q2) on ``dolfinx_mesh``, block
+        size 3, m nodes on this rank."""
 
     def to_host(self, u: np.ndarray) -> np.ndarray:
         """The load-space values (3 m,) of the nodal values ``u`` (n, 3): those of the owned cells
