@@ -1,7 +1,9 @@
 """The contract every discretization (SFVEM, Lagrange FEM) fulfils, and what both share.
 
 :class:`Discretization` lists every member that :class:`~dolfinx_sfvem.ContactProblem`, the
-Newton solver, the run output and the contact checks use (docs/architecture.md). It also holds
+Newton solver and the controls, the run output, the contact checks, the loads and the refinement
+indicators use (docs/architecture.md; what the loads on 3D faces need besides is
+:class:`~dolfinx_sfvem.discretizations.load_host.LoadHost`). It also holds
 what is the same for both methods: the unknowns' layout, the key-based state transfer of
 checkpoints, the error norms and the Dirichlet constraints (:class:`Constraints`).
 
@@ -207,8 +209,8 @@ class Constraints:
 
 class Discretization(abc.ABC):
     """A discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ (Eq. 46) with the layout of the module
-    docstring: what :class:`~dolfinx_sfvem.ContactProblem`, the solver, the run output and the
-    contact checks use.
+    docstring: what :class:`~dolfinx_sfvem.ContactProblem`, the solver and the controls, the run
+    output, the contact checks, the loads and the refinement indicators use (module docstring).
 
     Attributes
     ----------
