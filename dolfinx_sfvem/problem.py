@@ -174,9 +174,10 @@ class ContactProblem:
         negative pivots; :mod:`~dolfinx_sfvem.path_following.linear_solvers`, docs/guide/solving.md);
         ``petsc_options`` and the command line win over it.
     **options
-        Passed to the discretization: ``verbose`` and ``quadrature_degree`` for both;
-        ``l``, ``l_min`` for ``"vem"`` (and ``quadrature`` in 3D); ``fem_h`` for ``"fem"`` (triangle size; default
-        None: matched to the SFVEM unknowns of ``mesh``, see
+        Passed to the discretization: ``verbose`` for both; ``quadrature_degree`` (the degree of the
+        energy's rule) for ``"fem"`` and for ``"vem"`` on a 2D mesh; ``l``, ``l_min`` and ``quadrature``
+        (the energy's rule) for ``"vem"``; ``fem_h`` for ``"fem"`` on a 2D mesh (triangle size;
+        default None: matched to the SFVEM unknowns of ``mesh``, see
         :func:`~dolfinx_sfvem.mesh.remesh.matched_triangulation`).
 
     Attributes
@@ -254,7 +255,7 @@ class ContactProblem:
         self.boundary = solid_boundary(self.disc.output_mesh,
                                        [tag for tag, energy in self.materials.items() if not energy.is_medium],
                                        self.disc.midpoint_keys, self._options["overlap_tolerance"],
-                                       face_centre_keys=getattr(self.disc, "face_centre_keys", None),
+                                       face_centre_keys=self.disc.face_centre_keys,
                                        pressure_keys=self.disc.pressure_keys)
         self.x = self.disc.create_vector()
         self.x.set(0.0)

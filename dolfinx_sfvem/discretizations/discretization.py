@@ -1,7 +1,9 @@
 """The contract every discretization (SFVEM, Lagrange FEM) fulfils, and what both share.
 
 :class:`Discretization` lists every member that :class:`~dolfinx_sfvem.ContactProblem`, the
-Newton solver, the run output and the contact checks use (docs/architecture.md). It also holds
+Newton solver and the controls, the run output, the contact checks, the loads and the refinement
+indicators use (docs/architecture.md; what the loads on 3D faces need besides is
+:class:`~dolfinx_sfvem.discretizations.load_host.LoadHost`). It also holds
 what is the same for both methods: the unknowns' layout, the key-based state transfer of
 checkpoints, the error norms and the Dirichlet constraints (:class:`Constraints`).
 
@@ -207,14 +209,16 @@ class Constraints:
 
 class Discretization(abc.ABC):
     """A discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ (Eq. 46) with the layout of the module
-    docstring: what :class:`~dolfinx_sfvem.ContactProblem`, the solver, the run output and the
-    contact checks use.
+    docstring: what :class:`~dolfinx_sfvem.ContactProblem`, the solver and the controls, the run
+    output, the contact checks, the loads and the refinement indicators use (module docstring).
 
     Attributes
     ----------
     method : str
         ``"vem"`` or ``"fem"`` (summary.json).
     comm : MPI.Comm
+    materials : dict[int, Energy]
+        Region tag -> the region's energy, by increasing tag.
     gdim : int
         The dimension d (2 or 3): d unknowns per node.
     x_nodes : (n_local_nodes, d)
@@ -230,16 +234,22 @@ class Discretization(abc.ABC):
         e's local nodes ``v_0, m_0, v_1, m_1, ...`` (vertices and edge midpoints,
         counter-clockwise) at ``nodes[offsets[e]:offsets[e + 1]]`` and its polygon (FEM: cell)
         in :attr:`output_mesh`.
+    face_centre_keys : callable (a (n,), c (n,)) -> (n,) int64, or None
+        Node keys of the nodes at the centres of the quadrilateral faces with the diagonal between
+        the :attr:`output_mesh` points a and c, a the face's smallest point (the Q2 face centres,
+        which the contact checks gather with the faces' corners); None where there are none.
     """
 
     method: str
     comm: MPI.Comm
+    materials: dict[int, Energy]
     gdim: int
     x_nodes: np.ndarray
     node_key: np.ndarray
     node_point: np.ndarray
     global_nodes: np.ndarray
-    element_loops: tuple[np.ndarray, np.ndarray, np.ndarray]
+    element_loops: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    face_centre_keys: typing.Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -405,6 +415,12 @@ class Discretization(abc.ABC):
     def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The discrete displacement and its gradient at this rank's quadrature points of the error
         norms: (points (n, d), weights (n,) [area or volume], u_h (n, d), ∇u_h (n, d, d))."""
+
+    def quadrature_cells(self) -> np.ndarray:
+        """The :attr:`output_mesh` cell (n,) int64 of every point of :meth:`quadrature_fields`: what
+        the refinement indicators read per cell (:mod:`~dolfinx_sfvem.path_following.adaptivity`)."""
+        raise NotImplementedError(f"{type(self).__name__} does not name the cells of its quadrature points: "
+                                  "adaptive refinement needs method='vem' on a 2D mesh")
 
     def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
                     grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:

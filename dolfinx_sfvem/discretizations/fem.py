@@ -146,7 +146,8 @@ class LagrangeDiscretization(Discretization):
     comm
         Communicator (default: the mesh's).
     quadrature_degree
-        Degree of the quadrature rule of Π, its residual and tangent (default 4).
+        Degree of the quadrature rule of Π, its residual and tangent (default 4), and of the
+        face loads' forms (:attr:`face_quadrature_degree`).
     mesh_size
         The size the mesh was made with, reported by :meth:`describe` (None: unknown).
     jump_penalty
@@ -637,9 +638,14 @@ class LagrangeDiscretization(Discretization):
         """Values of ``value(x) -> (n,)`` (one component) at the nodes of the unknowns ``dofs``."""
         return np.asarray(value(self.x_nodes[dofs // self.gdim].T), dtype=np.float64).reshape(-1)
 
-    # ------------------------------------------------------------------ the host space of face loads
+    # ------------------------------------------------------------------ the load host (:class:`LoadHost`)
     #: the face loads' traces are continuous across the faces' edges (:mod:`~dolfinx_sfvem.physics.face_loads`)
     continuous_face_traces = True
+
+    @property
+    def face_quadrature_degree(self) -> int:
+        """Degree of the rule of the face loads' forms: that of the energy, :attr:`quadrature_degree`."""
+        return self.quadrature_degree
 
     @property
     def load_space(self) -> dolfinx.fem.FunctionSpace:
@@ -657,9 +663,19 @@ class LagrangeDiscretization(Discretization):
         with host.localForm() as hl:
             f.reshape(-1)[:] += hl.array_r
 
-    def add_host_matrix(self, A: PETSc.Mat, form) -> None:
-        """A += the assembled bilinear ``form`` of the host space (this space; A assembled by the caller)."""
-        dolfinx.fem.petsc.assemble_matrix(A, form)
+    def add_host_matrix(self, A: PETSc.Mat, form: dolfinx.fem.Form, scale: float = 1.0) -> None:
+        """A += scale K, K the assembled bilinear ``form`` of the host space (this space): added
+        into A's entries when ``scale`` is 1 (A assembled by the caller), else assembled apart
+        and added to A, which is then assembled (collective)."""
+        if scale == 1.0:
+            dolfinx.fem.petsc.assemble_matrix(A, form)
+            return
+        K = dolfinx.fem.petsc.create_matrix(form)
+        dolfinx.fem.petsc.assemble_matrix(K, form)
+        K.assemble()
+        A.assemble()
+        A.axpy(scale, K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        K.destroy()
 
     def nodes_of_host(self, nodes: np.ndarray) -> np.ndarray:
         """The local nodes hosted by the host nodes ``nodes``: the same."""
@@ -700,6 +716,7 @@ class LagrangeDiscretization(Discretization):
 
     @property
     def dolfinx_mesh(self) -> dolfinx.mesh.Mesh:
+        """The mesh of the cells: :attr:`mesh`, also the mesh of the load space."""
         return self.mesh
 
     def cell_tags(self):

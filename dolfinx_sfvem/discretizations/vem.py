@@ -94,11 +94,12 @@ class SFVEMDiscretization(OnSFVEMNodes):
                  verbose: bool = True):
         check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_LOBATTO)
         self.comm = comm
+        self.materials = dict(sorted(materials.items()))
         self.space = space = VEMSpace(mesh, comm, l=l, l_min=l_min, quadrature_degree=quadrature_degree,
                                       quadrature=quadrature, verbose=verbose)
         self.regions = [_Region(tag, energy, compile_kernels(energy, comm),
                                 np.flatnonzero(space.tags == tag).astype(np.int64))
-                        for tag, energy in sorted(materials.items())]
+                        for tag, energy in self.materials.items()]
         proj = space.projections
         nd = np.diff(space.dof_offsets)
         nphi = np.full(nd.size, 2, dtype=np.int64)       # rows of Φ: ∇φ, and ∇∇φ where Ψ uses G
@@ -241,6 +242,10 @@ class SFVEMDiscretization(OnSFVEMNodes):
                              proj.diameter, proj.Pi_m_offsets, proj.Pi_m, proj.Pi_nabla_offsets, proj.Pi_nabla,
                              space.q_offsets, space.x_q, xl.array_r.reshape(-1, 2), u_q, grad_q)
         return space.x_q, space.w_q, u_q, grad_q
+
+    def quadrature_cells(self) -> np.ndarray:
+        """The polygon of every point of :meth:`quadrature_fields` (the space's energy quadrature)."""
+        return np.repeat(self.space.polygons, np.diff(self.space.q_offsets))
 
     # ------------------------------------------------------------------ locating unknowns
     @property

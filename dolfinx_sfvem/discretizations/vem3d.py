@@ -45,8 +45,9 @@ from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 from dolfinx_sfvem.discretizations.projection3d import L_MIN, build_projections_3d
 from dolfinx_sfvem.discretizations.vem import _AreaTerm, _Region, _residual_at, _tangent_at
 
-#: quadrature degree of the UFL forms of loads on the host's faces (P2 traces: dead loads exactly)
-HOST_QUADRATURE_DEGREE = 4
+#: degree of the quadrature of the forms on the faces of the load space: the loads on faces and the
+#: enclosed volume (P2 traces: dead loads exactly)
+FACE_QUADRATURE_DEGREE = 4
 
 
 @dataclass
@@ -225,19 +226,15 @@ class PolyhedralDiscretization(OnSFVEMNodes):
             values[found] = u.eval(points[found], local[found])
         return values, found
 
-    # ------------------------------------------------------------------ the hosts on the fan mesh
+    # ------------------------------------------------------------------ the hosts on the fan mesh (:class:`LoadHost`)
     @property
-    def mesh(self) -> dolfinx.mesh.Mesh:
-        """The DOLFINx fan mesh of the host spaces (face loads, output)."""
-        return self.space.mesh
-
-    @property
-    def V(self):
-        """The output host: the vector P2 space on the fan mesh (:meth:`output_function`)."""
+    def V(self) -> dolfinx.fem.FunctionSpace:
+        """The output host: the vector P2 space on the fan mesh (:meth:`output_function`), whose nodes at
+        the polyhedra's vertices, edge midpoints and face centres carry SFVEM nodes (:meth:`nodes_of_host`)."""
         return self.space.V
 
     @property
-    def load_space(self):
+    def load_space(self) -> dolfinx.fem.FunctionSpace:
         """The host of the loads on faces: discontinuous P2 on the fan mesh, the face projections
         on the faces (:meth:`PolyhedralSpace.face_trace_interpolation`)."""
         return self.space.face_trace_interpolation()[0]
@@ -247,7 +244,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         """Region tag of every local fan tetrahedron (its polyhedron's)."""
         return self.space.polyhedron_mesh.tags[self.space.cell_polyhedron]
 
-    quadrature_degree = HOST_QUADRATURE_DEGREE
+    face_quadrature_degree = FACE_QUADRATURE_DEGREE
     #: each face's own projected trace on the load space: not continuous across the faces' edges
     continuous_face_traces = False
 
@@ -276,7 +273,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         found = node_of_p2[np.asarray(nodes, dtype=np.int64)]
         return found[found >= 0]
 
-    def add_host_matrix(self, A: PETSc.Mat, form, scale: float = 1.0) -> None:
+    def add_host_matrix(self, A: PETSc.Mat, form: dolfinx.fem.Form, scale: float = 1.0) -> None:
         """A += scale Tᵀ K T for the bilinear ``form`` on :attr:`load_space` (compiled), assembled
         (collective). Tᵀ K T couples the DOFs of faces only, inside the polyhedron blocks of A."""
         if self._T_petsc is None:
@@ -378,7 +375,8 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         return self.space.to_function(x, self.projections, u)
 
     @property
-    def dolfinx_mesh(self):
+    def dolfinx_mesh(self) -> dolfinx.mesh.Mesh:
+        """The fan mesh: the DOLFINx mesh of the output and of the load space."""
         return self.space.mesh
 
     def cell_tags(self):

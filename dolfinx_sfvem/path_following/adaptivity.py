@@ -47,13 +47,10 @@ Indicator = typing.Callable[[ProblemState], npt.NDArray[np.bool_]]
 def smallest_J(problem: ProblemState) -> npt.NDArray[np.float64]:
     """min over the quadrature points of J = det(I + Π⁰_l∇u) per polygon (n_polygons,), on every
     rank (collective; SFVEM only)."""
-    space = problem.disc.space
     _, _, _, grad = problem.disc.quadrature_fields(problem.x)
     J = (1.0 + grad[:, 0, 0]) * (1.0 + grad[:, 1, 1]) - grad[:, 0, 1] * grad[:, 1, 0]
     local = np.full(problem.mesh.n_polygons, np.inf)
-    counts = np.diff(space.q_offsets)
-    has = counts > 0
-    local[space.polygons[has]] = np.minimum.reduceat(J, space.q_offsets[:-1][has])
+    np.minimum.at(local, problem.disc.quadrature_cells(), J)
     out = np.empty_like(local)
     problem.comm.Allreduce(local, out, op=MPI.MIN)
     return out

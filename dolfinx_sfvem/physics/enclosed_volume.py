@@ -26,6 +26,7 @@ import dolfinx.fem.petsc
 
 from dolfinx_sfvem import _compat
 from dolfinx_sfvem.discretizations.compile_lock import compiled_form
+from dolfinx_sfvem.discretizations.discretization import Discretization
 from dolfinx_sfvem.physics.face_loads import mean_cofactor
 
 #: the tag of a region's interface facets in their facet tags
@@ -46,24 +47,25 @@ def interface_facets(mesh: dolfinx.mesh.Mesh, inside: np.ndarray) -> np.ndarray:
 
 class EnclosedVolume:
     """ΔV of a region and its derivatives on a discretization's load space (``disc.load_space``,
-    ``to_host``, ``add_from_host``, ``add_host_matrix``).
+    ``to_host``, ``add_from_host``, ``add_host_matrix`` of
+    :class:`~dolfinx_sfvem.discretizations.load_host.LoadHost`).
 
     Parameters
     ----------
     disc
-        The discretization (the SFVEM on polyhedra).
+        The discretization (the SFVEM on polyhedra), a load host.
     tag
         The region.
     """
 
-    def __init__(self, disc, tag: int):
+    def __init__(self, disc: Discretization, tag: int):
         self.disc = disc
-        mesh, W = disc.mesh, disc.load_space
+        mesh, W = disc.dolfinx_mesh, disc.load_space
         inside = np.asarray(disc.cell_tag == tag)
         facets = interface_facets(mesh, inside)
         tags = _compat.create_facet_tags(mesh, facets, np.full(facets.size, INTERFACE, dtype=np.int32))
         dS = ufl.Measure("dS", domain=mesh, subdomain_data=tags,
-                         metadata={"quadrature_degree": disc.quadrature_degree})(INTERFACE)
+                         metadata={"quadrature_degree": disc.face_quadrature_degree})(INTERFACE)
         Q = _compat.scalar_function_space(mesh, 0, "DG")
         chi = dolfinx.fem.Function(Q)
         chi.x.array[_compat.cell_dofs(Q)[:, 0]] = inside.astype(np.float64)

@@ -2,12 +2,13 @@
 traction, dead and follower pressure as UFL exterior-facet forms on the discretization's *host*
 space, and the open faces of a cavity pressure's region.
 
-The host (``disc.load_space``) is a P2 space on a DOLFINx mesh of tetrahedra or hexahedra: the
-Lagrange discretization's own space, or for the SFVEM on polyhedra the discontinuous P2 space of
-its fan mesh, where the state is T u with each face's projection of its trace on the face
-(:mod:`~dolfinx_sfvem.discretizations.vem3d`). The discretization moves values between its
-unknowns and the host (``to_host``, ``add_from_host``, ``add_host_matrix``, ``nodes_of_host``:
-the identity for the Lagrange one), so one form serves both methods.
+The host (``disc.load_space``) is a P2 space on the discretization's DOLFINx mesh of tetrahedra
+or hexahedra (``disc.dolfinx_mesh``): the Lagrange discretization's own space, or for the SFVEM on
+polyhedra the discontinuous P2 space of its fan mesh, where the state is T u with each face's
+projection of its trace on the face (:mod:`~dolfinx_sfvem.discretizations.vem3d`). The
+discretization is a :class:`~dolfinx_sfvem.discretizations.load_host.LoadHost`: it moves values
+between its unknowns and the host (``to_host``, ``add_from_host``, ``add_host_matrix``,
+``nodes_of_host``: the identity for the Lagrange one), so one form serves both methods.
 
 The faces a load acts on are facet tags built from ``where`` (:func:`loaded_facets`). On the
 quadratic faces (P2 triangles, Q2 quadrilaterals) the forces at λ = 1 are, with N the reference
@@ -24,7 +25,7 @@ follower          −p ∫ v · J F⁻ᵀ N dA (Nanson: n da)         the volume
 The follower load's stiffness is ``ufl.derivative`` of its form. The swept volume is exact for
 straight paths x(s) = X + s u, s ∈ [0, 1]: −∫ u · (∫₀¹ cof(I + s H) ds) N dA with H = ∇u and
 ∫₀¹ cof(I + s H) ds = I + ½ (tr H I − Hᵀ) + ⅓ cof H (cof(I + sH) is quadratic in s in 3D).
-Forms are integrated with the discretization's quadrature degree (exact for the dead loads).
+Forms are integrated with the rule of degree ``disc.face_quadrature_degree`` (exact for the dead loads).
 """
 from __future__ import annotations
 
@@ -91,7 +92,7 @@ def facet_normal_axes(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray
 
 
 def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
-    """The local boundary facets of ``disc.mesh`` that ``where`` selects (collective): a marker
+    """The local boundary facets of ``disc.dolfinx_mesh`` that ``where`` selects (collective): a marker
     of coordinates (3, n) -> (n,) bool (the facets whose vertices and midpoint it selects), or
     region tags (the mesh-boundary facets of their cells).
 
@@ -100,7 +101,7 @@ def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
     ValueError
         If the marker selects a facet inside the mesh (naming its midpoint) or nothing is selected.
     """
-    mesh = disc.mesh
+    mesh = disc.dolfinx_mesh
     fdim = mesh.topology.dim - 1
     boundary = exterior_facets(mesh)
     if callable(where):
@@ -159,10 +160,10 @@ class FaceForms:
 
     def __init__(self, disc: Discretization, facets: np.ndarray):
         self.disc = disc
-        mesh = disc.mesh
+        mesh = disc.dolfinx_mesh
         tags = _compat.create_facet_tags(mesh, facets, np.full(facets.size, LOADED, dtype=np.int32))
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags,
-                              metadata={"quadrature_degree": disc.quadrature_degree})(LOADED)
+                              metadata={"quadrature_degree": disc.face_quadrature_degree})(LOADED)
         self.u = dolfinx.fem.Function(disc.load_space)
         self.v = ufl.TestFunction(disc.load_space)
         self.N = ufl.FacetNormal(mesh)
@@ -230,7 +231,7 @@ class BoundFacePressure(BoundLoad):
         #: surface's boundary curve (m, 3)
         self.curve_nodes = np.zeros((0, 3), dtype=np.int64)
         if follower and disc.continuous_face_traces:
-            curve = surface_boundary_edges(disc.mesh, facets, disc.comm)
+            curve = surface_boundary_edges(disc.dolfinx_mesh, facets, disc.comm)
             self.curve_nodes = np.array([dolfinx.fem.locate_dofs_topological(disc.V, 1, np.array([e], dtype=np.int32),
                                                                              remote=False)    # local: not collective
                                          for e in curve], dtype=np.int64).reshape(-1, 3)
@@ -296,7 +297,7 @@ class BoundCavityPressure3D(CavityPressureTerm):
 
     def __init__(self, name: str, disc: Discretization, term, p: float, open_facets: np.ndarray, axes: np.ndarray):
         super().__init__(name, disc, term, p)
-        fdim = disc.mesh.topology.dim - 1
+        fdim = disc.dolfinx_mesh.topology.dim - 1
         #: per axis k, the local nodes on the open faces normal to it
         self.open_nodes = [disc.nodes_of_host(dolfinx.fem.locate_dofs_topological(disc.V, fdim, open_facets[axes == k]))
                            for k in range(3)]
@@ -316,7 +317,7 @@ class BoundCavityPressure3D(CavityPressureTerm):
 
 def bind_cavity_pressure(name: str, disc: Discretization, tag: int, p: float, uses_gradient: bool) -> BoundLoad:
     """The cavity pressure of :class:`~dolfinx_sfvem.physics.loads.CavityPressure` on a 3D mesh (collective)."""
-    mesh = disc.mesh
+    mesh = disc.dolfinx_mesh
     boundary = exterior_facets(mesh)
     f2c = mesh.topology.connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     cells = np.array([f2c.links(f)[0] for f in boundary], dtype=np.int64)
