@@ -94,11 +94,11 @@ MERIT_HALVINGS = 20
 #: a Newton stall whose smallest residual is more than this many times atol is not a round-off limit
 STALL_FACTOR = 10.0
 #: a solve is abandoned once more of its trial states than this left the energy's domain (module docstring)
-MAX_REJECTED = 12
+MAX_REJECTED = 40
 #: a solve is abandoned from this iteration on when its residual stalls (module docstring) ...
 STALL_MIN_ITERATIONS = 10
 #: ... i.e. when the last STALL_WINDOW residuals ...
-STALL_WINDOW = 6
+STALL_WINDOW = 10
 #: ... stay above STALL_DECREASE times the smallest residual before them
 STALL_DECREASE = 0.9
 
