@@ -375,8 +375,8 @@ def test_stall_is_classified_by_its_residual_floor(norms, atol, roundoff, kind):
 
 
 # ----------------------------------------------------------------------------- abandoned solves
-#: a 3D Hertz step (h 0.2, core 0.1, gamma 1e-5, load 0.85) that creeps by 1-4 % per iteration
-#: for six iterations and then converges: a window of 6 abandoned it and the run stopped at 0.83
+#: the residuals of a 3D Hertz step (h 0.2, core 0.1, gamma 1e-5, load 0.85) that creep by 1-4 %
+#: per iteration for six iterations and then converge: a solve like it must run to its end
 RECOVERING = [2.19e-2, 1.64e-2, 1.23e-2, 9.22e-3, 6.92e-3, 5.26e-4, 4.59e-4, 4.36e-4, 4.26e-4, 4.19e-4,
               4.08e-4, 3.93e-4, 3.27e-4, 1.77e-4, 9.51e-5, 8.43e-5, 8.19e-5, 9.54e-5, 7.08e-5, 6.84e-5,
               6.57e-5, 6.24e-5, 5.81e-5, 5.14e-5, 4.04e-5, 2.59e-5, 5.34e-6, 9.51e-8, 7.97e-11]
