@@ -244,10 +244,10 @@ class ContactProblem:
             self.disc = SFVEMDiscretization(mesh, self.materials, self.comm, **options)
         elif isinstance(mesh, CellMesh):
             from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization
-            unknown = sorted(set(options) - {"verbose", "quadrature_degree"})
+            unknown = sorted(set(options) - {"verbose", "quadrature_degree", "jump_penalty"})
             if unknown:
                 raise ValueError(f"option(s) {', '.join(unknown)} not available on a 3D mesh (its cells are the "
-                                 "FEM's cells); give verbose and quadrature_degree only")
+                                 "FEM's cells); give verbose, quadrature_degree and jump_penalty only")
             self.disc = LagrangeDiscretization.from_cell_mesh(mesh, self.materials, self.comm, **options)
         else:
             from dolfinx_sfvem.discretizations.fem import LagrangeDiscretization

@@ -133,6 +133,33 @@ def test_jump_penalty_acts_only_on_kinks_of_the_gradient(two_region_materials, n
     assert energy_of(penalised, kink, nodal_field) > energy_of(plain, kink, nodal_field) * (1 + 1e-3)
 
 
+def test_jump_penalty_in_3d_acts_only_on_kinks_of_the_gradient(tiny3d):
+    """As in 2D, on P2 tetrahedra of a 2 x 1 x 1 medium box (the same form serves Q2 hexahedra;
+    their facet forms compile for minutes): no energy for a quadratic field, energy for one whose
+    gradient jumps across the interior faces at x = 1/2."""
+    points, cells = tiny3d.hex_grid((2, 1, 1), (1.0, 0.5, 0.5))
+    cells = cells[:, tiny3d.kuhn_tets()].reshape(-1, 4)
+    mesh = sf.CellMesh(points, cells, np.ones(len(cells)), "tetrahedron")
+    medium = {1: sf.ThirdMedium(mu=0.5, K=1.0, gamma=1.0, alpha_r=0.3, regularization="huhu")}
+    plain, penalised = (LagrangeDiscretization.from_cell_mesh(mesh, medium, jump_penalty=eta, verbose=False)
+                        for eta in (None, 40.0))
+
+    def energy(disc, u):
+        x = disc.create_vector()
+        with x.localForm() as xl:
+            xl.array[:] = u(disc.x_nodes).ravel()
+        return disc.residual(x, disc.create_vector()).energy
+
+    def quadratic(X):
+        return 0.05 * np.stack([X[:, 0] ** 2 - X[:, 1], X[:, 0] * X[:, 2], X[:, 1] * X[:, 2]], axis=1)
+
+    def kink(X):
+        return 0.05 * np.stack([0 * X[:, 0], np.abs(X[:, 0] - 0.5), 0 * X[:, 0]], axis=1)
+
+    assert np.isclose(energy(penalised, quadratic), energy(plain, quadratic), rtol=1e-12, atol=0.0)
+    assert energy(penalised, kink) > energy(plain, kink) * (1 + 1e-3)
+
+
 def test_jump_penalty_must_be_positive(two_region_materials):
     with pytest.raises(ValueError, match="jump_penalty"):
         LagrangeDiscretization.from_polygon_mesh(two_regions(), two_region_materials(), fem_h=0.35,

@@ -176,8 +176,6 @@ class LagrangeDiscretization(Discretization):
         self.gdim = mesh.geometry.dim
         if self.gdim != tdim:
             raise ValueError(f"a mesh of {tdim}D cells in {self.gdim}D space: the cells must fill the space")
-        if jump_penalty is not None and tdim != 2:
-            raise ValueError("jump_penalty is available in 2D only")
         n_local_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
         self.cell_tag = np.full(n_local_cells, np.iinfo(np.int32).min, dtype=np.int64)
         self.cell_tag[cell_tags.indices] = cell_tags.values
@@ -335,7 +333,7 @@ class LagrangeDiscretization(Discretization):
         h = ufl.CellDiameter(mesh)
         h_e = (h("+") + h("-")) / 2
         i, j, k = ufl.indices(3)
-        F_side = {side: ufl.Identity(2) + ufl.grad(u)(side) for side in "+-"}
+        F_side = {side: ufl.Identity(self.gdim) + ufl.grad(u)(side) for side in "+-"}
         jump = ufl.as_tensor((F_side["+"] - F_side["-"])[i, j] * n[k], (i, j, k))
         F_avg = (F_side["+"] + F_side["-"]) / 2
         energy_terms = []
@@ -450,19 +448,22 @@ class LagrangeDiscretization(Discretization):
     @classmethod
     def from_cell_mesh(cls, mesh: CellMesh, materials: typing.Mapping[int, Energy],
                        comm: MPI.Comm = MPI.COMM_WORLD, *, quadrature_degree: int = QUADRATURE_DEGREE,
-                       verbose: bool = True) -> "LagrangeDiscretization":
+                       jump_penalty: float | None = None, verbose: bool = True) -> "LagrangeDiscretization":
         """The degree-2 Lagrange discretization on the cells of ``mesh`` (P2 on simplices, Q2 on
         parallelograms/parallelepipeds), distributed by DOLFINx's partitioner from rank 0's copy;
-        its :attr:`output_mesh` is ``mesh`` again (gathered back; the same points and cells)."""
+        its :attr:`output_mesh` is ``mesh`` again (gathered back; the same points and cells).
+        ``jump_penalty``: as in :class:`LagrangeDiscretization` (the cells across the partition's
+        faces are then ghosted)."""
         cells, points = mesh.cells, mesh.points
         if comm.rank != 0:
             cells, points = np.empty((0, cells.shape[1]), np.int64), np.empty((0, mesh.gdim))
-        dmesh = _compat.create_mesh_partitioned(comm, cells, points, cell=mesh.cell_type)
+        dmesh = _compat.create_mesh_partitioned(comm, cells, points, cell=mesh.cell_type,
+                                                ghost_facet_neighbours=jump_penalty is not None)
         cell_tags = _compat.create_cell_tags(dmesh, mesh.tags[_compat.original_cell_index(dmesh)])
         x = mesh.points[mesh.cells]
         h = float(np.linalg.norm(x[:, :, None] - x[:, None], axis=3).max()) if mesh.n_cells else 0.0
         disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
-                   region_names=mesh.region_names)
+                   jump_penalty=jump_penalty, region_names=mesh.region_names)
         kind = "P2" if mesh.cell_type in ("triangle", "tetrahedron") else "Q2"
         say(log, f"{kind} FEM: {mesh.n_cells} {mesh.cell_type}s, {disc.num_dofs_global} unknowns on {comm.size} "
                  f"rank(s), quadrature degree {disc.quadrature_degree}", verbose, comm)
