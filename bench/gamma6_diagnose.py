@@ -95,9 +95,8 @@ def main(argv=None) -> None:
         newton.equilibrium.set_load(load)
         newton._residual(newton.snes, x, newton.b)
         newton.disc.jacobian(x, newton.A)
-        stiff = newton.free_row_norm(newton.A)
-        newton._stiffness = stiff
-        atol = newton.absolute_tolerance(x)
+        stiff = newton.tolerance.free_row_norm(newton.A)
+        atol = newton.tolerance(x, newton.g, stiff)
         b = newton.b.getArray().copy()
         xa = x.getArray()
         Fc = stiff * max(np.abs(xa).max(), np.abs(newton.g).max())

@@ -7,7 +7,8 @@ messages through logging, Ctrl-C, results as DOLFINx objects, examples that run.
   one the library prints them itself; ``verbose=False`` prints nothing.
 - A second SIGINT interrupts at once; no handlers in a notebook kernel or off the main thread;
   a KeyboardInterrupt during a solve keeps the converged steps and the state of the last one,
-  and the run resumes to the uninterrupted result.
+  and the run resumes to the uninterrupted result; one in the first attempt leaves the start
+  state; the Newton solver is freed when a run is interrupted or fails.
 - displacement(), stress() and region_tags() are DOLFINx objects usable in forms.
 - The module docstring example of problem.py and the README's Python examples run.
 """
@@ -26,9 +27,9 @@ import types
 import dolfinx_sfvem as sf  # first: with the dolfinx-solver wheel it loads MPI before the bindings
 import dolfinx_sfvem.problem
 from dolfinx_sfvem import exact, meshes
-from dolfinx_sfvem.path_following import interrupt
+from dolfinx_sfvem.path_following import interrupt, snes
 from dolfinx_sfvem.mpi_launcher import job_environment
-from dolfinx_sfvem.output.run_summary import read_summary
+from dolfinx_sfvem.output.run_summary import STOPPED_BY_SIGNAL, read_summary
 
 import dolfinx
 import dolfinx.fem
@@ -198,6 +199,48 @@ def test_keyboard_interrupt_keeps_the_converged_steps_and_resumes(tmp_path):
     resumed = strip(verbose=False).solve(10, out=tmp_path, resume=True, observers={"w": lambda p: 0.0})
     full = strip(verbose=False).solve(10, observers={"w": lambda p: 0.0})
     assert resumed.converged and [s["load"] for s in resumed.steps] == [s["load"] for s in full.steps]
+
+
+@pytest.mark.parametrize("interruption", [KeyboardInterrupt(), interrupt.Interrupted(signal.SIGTERM)],
+                         ids=["ctrl-c", "second signal"])
+def test_an_interrupt_in_the_first_attempt_leaves_the_start_state(tmp_path, monkeypatch, interruption):
+    """Interrupted inside the first Newton solve, after it moved the state: the problem is back at
+    its start state, the outputs say it was interrupted, the interrupt itself goes on (no other
+    exception), and the Newton solver of the mesh is freed."""
+    newtons = []
+
+    def interrupted_solve(self, x, g, load=1.0, energy_merit=False):
+        newtons.append(self)
+        x.set(1.0)                                  # a Newton update under way
+        raise interruption
+    monkeypatch.setattr(snes.SNESNewton, "solve", interrupted_solve)
+    problem = strip(verbose=False)
+    with pytest.raises(KeyboardInterrupt) as raised:
+        problem.solve(10, out=tmp_path, handle_signals=False)
+    assert raised.value is interruption
+    assert problem.load == 0.0 and problem.x.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+    summary = read_summary(tmp_path)
+    assert summary.message.startswith(f"{STOPPED_BY_SIGNAL} {interrupt.signal_of(interruption)} ")
+    assert not summary.converged and not summary.converged_steps
+    assert len(newtons) == 1 and newtons[0].snes.handle == 0 and newtons[0].A.handle == 0
+
+
+def test_a_failed_path_frees_its_solvers():
+    """Every attempt fails: the run stops with the message of the failed step, at the start state,
+    and the Newton solver of the mesh is freed."""
+    newtons = []
+
+    def failing_solve(self, x, g, load=1.0, energy_merit=False):
+        newtons.append(self)
+        x.set(1.0)
+        return snes.NewtonResult(False, -3, 1, [1.0, 1.0], 1.0, 0, 0, failure="made to fail")
+    problem = strip(verbose=False)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(snes.SNESNewton, "solve", failing_solve)
+        result = problem.solve(10, min_increment=0.025, handle_signals=False)
+    assert not result.converged and result.message.startswith("step 1: load step to load factor 0.025 failed")
+    assert problem.load == 0.0 and problem.x.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+    assert len(newtons) == 3 and len({id(n) for n in newtons}) == 1 and newtons[0].snes.handle == 0
 
 
 # --------------------------------------------------------------------------- results

@@ -362,11 +362,12 @@ class _Bordered:
         return self.R.norm(), info
 
     def atol(self, x: PETSc.Vec, load: float) -> float:
-        """The Newton solver's absolute tolerance (its default scales with the round-off level)."""
+        """The Newton solver's absolute tolerance: the given ``snes_atol``, or its default policy
+        (:class:`~dolfinx_sfvem.path_following.snes.AbsoluteTolerance`) at x, the prescribed values
+        at ``load`` and the last factorized tangent."""
         if not self.newton.scaled_atol:
             return self.given_atol
-        self.newton.g = load * self.final
-        return self.newton.absolute_tolerance(x, self._stiffness)
+        return self.newton.tolerance(x, load * self.final, self._stiffness)
 
     def factorize(self, x: PETSc.Vec, load: float) -> int | None:
         """Tangent at x (load factor ``load``), the right-hand sides -R and f̂ lifted, the constraints
@@ -374,7 +375,7 @@ class _Bordered:
         A = self.newton.A
         self.equilibrium.set_load(load)
         self.equilibrium.tangent(x, A)
-        self._stiffness = self.newton.free_row_norm(A)
+        self._stiffness = self.newton.tolerance.free_row_norm(A)
         self.equilibrium.load_vector(x, self.f)
         owned = self.constraints.owned
         self.f.getArray()[owned] = self.final            # constrained unknowns move by δλ final

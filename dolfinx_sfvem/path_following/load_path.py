@@ -5,11 +5,17 @@
 default, :class:`~dolfinx_sfvem.path_following.arclength.ArcLength`), the way FElupe's ``Job`` evaluates the
 increments its ``Step`` yields::
 
-    for attempt in control.attempts(step_solver):     # Newton (or arc-length) per attempt
-        record it                                      # gap, reactions, loads, observers
-        if converged: progress line, write the step    # run_output.RunWriter
-        if adaptive: refine, re-balance, go on         # adaptivity.Adaptivity
-        if a stop was requested: break                 # interrupt.StopRequest
+    for each mesh level (a new one after an adaptive refinement):       # LoadPath._run_mesh
+        step_solver = the solvers of the mesh                           # freed however the level ends
+        for attempt in control.attempts(step_solver):                   # Newton (or arc-length) per attempt
+            record it                                                   # gap, reactions, loads, observers
+            if converged: progress line, write the step                 # run_output.RunWriter
+            if adaptive: refine, next level                             # adaptivity.Adaptivity
+            if a stop was requested: end                                # interrupt.StopRequest
+
+A mesh level ends with a :class:`MeshOutcome`: the path ended, the mesh was refined (or its
+refinement undone), a step failed, or an interrupt came; in each the problem holds its last
+converged state.
 
 The controls never see the problem: they talk to a :class:`StepSolver`, the equilibrium
 solvers of the current mesh (Newton at a fixed load factor, and the balance with its load
@@ -19,6 +25,7 @@ solids overlap is rejected like a failed solve. ``ContactProblem.solve`` is this
 from __future__ import annotations
 
 import dataclasses
+import enum
 import itertools
 import logging
 import pathlib
@@ -104,6 +111,65 @@ def observe(problem: Problem, observers: typing.Mapping[str, Observer]) -> dict[
     return values
 
 
+class Ending(enum.Enum):
+    """How the path on one mesh ended (:meth:`LoadPath._run_mesh`)."""
+    #: the control's path ended (``until`` reached, its ``passed`` criterion) or a stop was requested
+    ENDED = enum.auto()
+    #: adaptive refinement after a converged step: the path goes on on the refined mesh, re-balanced first
+    REFINED = enum.auto()
+    #: re-balancing the refined mesh failed and the refinement was undone: the path goes on on the
+    #: mesh before, without adaptivity
+    UNREFINED = enum.auto()
+    #: a step failed with the smallest increment, or re-balancing failed with nothing to undo (:class:`SolveFailed`)
+    FAILED = enum.auto()
+    #: a ``KeyboardInterrupt`` (Ctrl-C, or :class:`~dolfinx_sfvem.path_following.interrupt.Interrupted`)
+    INTERRUPTED = enum.auto()
+
+
+@dataclasses.dataclass(frozen=True)
+class MeshStart:
+    """How the path starts on one mesh (:meth:`LoadPath._run_mesh`).
+
+    Attributes
+    ----------
+    new_mesh : bool
+        Not the mesh the run started on: the run's outputs change mesh and the control forgets
+        what it kept of earlier states before the first attempt.
+    rebalance : bool
+        Equilibrium at the load factor already reached (:meth:`LoadPath._rebalance`) before the
+        control's attempts: a continued path, or a state transferred by refinement.
+    before : (mesh, state) or None
+        Of the adaptive refinement that made this mesh, the mesh and gathered state before it,
+        where a failed re-balancing goes back to; None when the state was not transferred (it is
+        then checked as a starting state).
+    adapt : Adaptivity or None
+        Adaptive refinement after the converged steps on this mesh.
+    """
+    new_mesh: bool = False
+    rebalance: bool = False
+    before: tuple[PolygonMesh, np.ndarray] | None = None
+    adapt: Adaptivity | None = None
+
+
+@dataclasses.dataclass
+class MeshOutcome:
+    """How the path on one mesh ended; the problem then holds its last converged state
+    (``problem.x`` at ``problem.load``) on the mesh the path goes on with.
+
+    Attributes
+    ----------
+    ending : Ending
+    before : (mesh, state) or None
+        ``REFINED``: the mesh and gathered state before the refinement (:attr:`MeshStart.before`
+        of the next mesh).
+    error : SolveFailed or KeyboardInterrupt or None
+        ``FAILED`` and ``INTERRUPTED``: the exception that ended the path.
+    """
+    ending: Ending
+    before: tuple[PolygonMesh, np.ndarray] | None = None
+    error: SolveFailed | KeyboardInterrupt | None = None
+
+
 class LoadPath:
     """A run of a problem along a load path (module docstring); the parameters are those of
     :meth:`ContactProblem.solve <dolfinx_sfvem.problem.ContactProblem.solve>`."""
@@ -139,7 +205,18 @@ class LoadPath:
     # ------------------------------------------------------------------ the run
     def run(self) -> Result:
         """Solve the path; returns its :class:`Result` (see :meth:`ContactProblem.solve`). A
-        continued gamma (``gamma_start``) is back at the asked values afterwards."""
+        continued gamma (``gamma_start``) is back at the asked values afterwards.
+
+        Raises
+        ------
+        SolveFailed
+            With ``raise_on_failure``, when a step fails with the smallest increment (the outputs
+            are written first).
+        KeyboardInterrupt
+            Ctrl-C or a second signal (:class:`~dolfinx_sfvem.path_following.interrupt.Interrupted`)
+            interrupted the run: the problem is back at its last converged state and the outputs
+            say so before the exception goes on.
+        """
         try:
             return self._run()
         finally:
@@ -147,8 +224,10 @@ class LoadPath:
                 self.continuation.restore()
 
     def _run(self) -> Result:
+        """The path over its mesh levels: :meth:`_run_mesh` on each, a level after every adaptive
+        refinement (and after an undone one), then the outputs and the result."""
         p = self.problem
-        rebalance = self.from_current_state and p.solved and not self.resume
+        start = MeshStart(rebalance=self.from_current_state and p.solved and not self.resume, adapt=self.adapt)
         if self.adapt is not None:
             self.adapt.level = None                 # levels count from the mesh this solve starts on
         p.solved = True
@@ -162,74 +241,112 @@ class LoadPath:
         writer = RunWriter(p.comm, p.disc, p.x, self.out, self.control, self.summary, append=self.resume,
                            pressure_at=self.pressure_at) if self.out is not None else None
         message = ""
-        refined, transferred = 0, False        # polygons split after the last converged step; state transferred
-        undo = None                            # mesh and state before the last adaptive refinement
-        converged_x = None                     # the state to go back to on KeyboardInterrupt, during attempts
-        adapt = self.adapt
         with StopRequest(self.handle_signals) as stop:
-            try:
-                while True:
-                    solver = self._step_solver()
-                    converged_x = p.x.copy()
-                    if not transferred:
-                        self._check_initial_state()      # a transferred state is checked by re-balancing
-                    path = [self._rebalance(solver)] if rebalance else []
-                    for attempt in itertools.chain(path, self.control.attempts(solver)):
-                        n_converged = sum(r["converged"] for r in self.records) + attempt.converged
-                        rec = self._record(attempt, n_converged, solver)
-                        self.records.append(asdict(rec))
-                        if attempt.converged:
-                            p.load = attempt.load
-                            p.x.copy(converged_x)
-                            self._progress(rec)
-                            self._warn_instability(rec)
-                            if writer is not None:
-                                writer.step(self.records, self._wall(), solver.contact[1], p.boundary)
-                            if self.control.passed(rec):
-                                break
-                            if adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):
-                                refined, undo = self._adapt(adapt)
-                                self.records[-1]["refined_polygons"] = refined
-                        else:
-                            then = "re-balancing failed" if attempt.rebalancing else "cutting the increment"
-                            say(log, f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
-                                     f"{rec.newton_iterations} its); {then}", p.verbose, p.comm)
-                        if not attempt.converged and attempt.rebalancing:
-                            if undo is None:
-                                raise SolveFailed(f"re-balancing at load factor {p.load:.6g} failed "
-                                                  f"({rec.failure})")
-                            self._undo_adaptation(*undo)
-                            undo, adapt, refined = None, None, -1
-                        run_phase.phase(f"the load step after load {p.load:.6g} ({n_converged} converged steps)")
-                        if refined or stop.requested(p.comm):
-                            break
-                    solver.destroy()
-                    converged_x.destroy()
-                    converged_x = None
-                    if not refined:
-                        break
-                    if writer is not None:
-                        writer.new_mesh(p.disc, p.x)
-                    self.control.forget_history()
-                    rebalance, transferred, refined = refined > 0, refined > 0, 0
-            except SolveFailed as err:
+            while True:
+                outcome = self._run_mesh(start, writer, stop)
+                if outcome.ending is Ending.REFINED:
+                    start = MeshStart(new_mesh=True, rebalance=True, before=outcome.before, adapt=start.adapt)
+                elif outcome.ending is Ending.UNREFINED:
+                    start = MeshStart(new_mesh=True)
+                else:
+                    break
+            if outcome.ending is Ending.INTERRUPTED:
+                interrupt = outcome.error
+                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal_of(interrupt)} "
+                                     f"({str(interrupt) or 'KeyboardInterrupt'}, at once) at load factor {p.load:.6g}")
+                raise interrupt
+            if outcome.ending is Ending.FAILED:
+                failure = outcome.error
                 n_done = sum(r["converged"] for r in self.records)
-                message = f"step {n_done + 1}: {err}"
-                err.args = (message,)
+                message = f"step {n_done + 1}: {failure}"
+                failure.args = (message,)
                 if self.raise_on_failure:
                     self._finish(writer, message)
-                    raise
-            except KeyboardInterrupt as err:
-                if converged_x is not None:
-                    converged_x.copy(p.x)
-                    p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-                self._finish(writer, f"{STOPPED_BY_SIGNAL} {signal_of(err)} ({str(err) or 'KeyboardInterrupt'}, at once) "
-                                     f"at load factor {p.load:.6g}")
-                raise
+                    raise failure
         signalled = stop.requested(p.comm)
         if signalled:
             message = f"{STOPPED_BY_SIGNAL} {signalled} at load factor {p.load:.6g}"
         return self._finish(writer, message)
+
+    def _run_mesh(self, start: MeshStart, writer: RunWriter | None, stop: StopRequest) -> MeshOutcome:
+        """The path on the problem's current mesh: its step solver, the re-balancing ``start``
+        asks for, then the control's attempts (:meth:`_take`) until the control's path ends, a stop
+        is requested, the mesh is refined or its refinement undone (:class:`Ending`).
+
+        The problem holds its last converged state on every ending: a converged attempt becomes
+        its state, a failed one leaves it there, and an interrupt puts it back there. The step
+        solver and the copy of the converged state are freed on every ending. :class:`SolveFailed`
+        and ``KeyboardInterrupt`` end the path on this mesh as outcomes; any other exception goes
+        on (collective)."""
+        p = self.problem
+        solver: StepSolver | None = None
+        converged: PETSc.Vec | None = None      # the last converged state on this mesh
+        try:
+            if start.new_mesh:
+                if writer is not None:
+                    writer.new_mesh(p.disc, p.x)
+                self.control.forget_history()
+            solver = self._step_solver()
+            converged = p.x.copy()
+            if start.before is None:
+                self._check_initial_state()     # a transferred state is checked by re-balancing
+            rebalancing = [self._rebalance(solver)] if start.rebalance else []
+            for attempt in itertools.chain(rebalancing, self.control.attempts(solver)):
+                rec = self._take(attempt, solver, converged, writer)
+                refined, before = 0, None
+                if attempt.converged:
+                    if self.control.passed(rec):
+                        return MeshOutcome(Ending.ENDED)
+                    if start.adapt is not None and not attempt.rebalancing and not stop.requested(p.comm):
+                        refined, before = self._adapt(start.adapt)
+                        self.records[-1]["refined_polygons"] = refined
+                elif attempt.rebalancing:
+                    if start.before is None:
+                        raise SolveFailed(f"re-balancing at load factor {p.load:.6g} failed ({rec.failure})")
+                    self._undo_adaptation(*start.before)
+                run_phase.phase(f"the load step after load {p.load:.6g} ({rec.step} converged steps)")
+                if not attempt.converged and attempt.rebalancing:
+                    return MeshOutcome(Ending.UNREFINED)
+                if refined:
+                    return MeshOutcome(Ending.REFINED, before=before)
+                if stop.requested(p.comm):
+                    return MeshOutcome(Ending.ENDED)
+            return MeshOutcome(Ending.ENDED)
+        except SolveFailed as err:
+            return MeshOutcome(Ending.FAILED, error=err)
+        except KeyboardInterrupt as err:
+            if converged is not None and p.x is solver.x:   # not moved to a refined mesh (its state is converged)
+                converged.copy(p.x)
+                p.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            return MeshOutcome(Ending.INTERRUPTED, error=err)
+        finally:
+            if solver is not None:
+                solver.destroy()
+            if converged is not None:
+                converged.destroy()
+
+    def _take(self, attempt: Attempt, solver: StepSolver, converged: PETSc.Vec,
+              writer: RunWriter | None) -> StepRecord:
+        """Record ``attempt`` (appended to :attr:`records`); a converged one becomes the problem's
+        state at its load and is copied into ``converged``, then its progress line, a warning when
+        the path enters unstable states and its step in the outputs; a failed one is reported
+        (collective)."""
+        p = self.problem
+        n_converged = sum(r["converged"] for r in self.records) + attempt.converged
+        rec = self._record(attempt, n_converged, solver)
+        self.records.append(asdict(rec))
+        if attempt.converged:
+            p.load = attempt.load
+            p.x.copy(converged)
+            self._progress(rec)
+            self._warn_instability(rec)
+            if writer is not None:
+                writer.step(self.records, self._wall(), solver.contact[1], p.boundary)
+        else:
+            then = "re-balancing failed" if attempt.rebalancing else "cutting the increment"
+            say(log, f"  step to load {attempt.load:.5g} failed ({rec.failure}; "
+                     f"{rec.newton_iterations} its); {then}", p.verbose, p.comm)
+        return rec
 
     def _step_solver(self) -> StepSolver:
         """The solvers of the problem's current mesh, its constraints registered."""

@@ -35,7 +35,7 @@ tangent; :class:`~dolfinx_sfvem.physics.equilibrium.Equilibrium` says when the t
 (a follower pressure on an open boundary), and then MUMPS LU (``pc_type lu``) is the default.
 
 Default absolute tolerance: unless ``snes_atol`` is given (command line or Python), it
-follows the round-off level of the residual,
+follows the round-off level of the residual (:class:`AbsoluteTolerance`),
 
     atol = max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * r_0),
     F_c  = ||K||_inf * max(||x||_inf, ||g||_inf) + ||f||_inf,
@@ -305,6 +305,59 @@ def node_spacing(disc: Discretization) -> float:
     return float(np.prod(extent) / n) ** (1.0 / extent.size) if extent.size else 0.0
 
 
+class AbsoluteTolerance:
+    """The default absolute tolerance of the residual of one balance, which follows its round-off
+    level (module docstring)::
+
+        atol = max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * eps * ||K||_inf h sqrt(n))
+
+    A policy without per-solve state: the caller passes the state, the prescribed values and the
+    stiffness ``||K||_inf`` of the tangent it holds. Both Newton's method
+    (:class:`SNESNewton`) and the arc-length's bordered iterations use it.
+
+    Parameters
+    ----------
+    equilibrium
+        The balance: its discretization (node spacing, free rows, communicator) and its
+        external force.
+
+    Attributes
+    ----------
+    floor_length : float
+        ``h sqrt(n)`` of the residual's round-off floor ``r_0 = eps ||K||_inf h sqrt(n)``
+        (:func:`node_spacing`; computed once, collective).
+    roundoff : float
+        The round-off level ``eps F_c`` of the last call (0 before any).
+    """
+
+    def __init__(self, equilibrium: Equilibrium):
+        self.equilibrium = equilibrium
+        disc = equilibrium.disc
+        self.disc = disc
+        self.floor_length = node_spacing(disc) * float(np.sqrt(disc.num_dofs_global))
+        self.roundoff = 0.0
+
+    def free_row_norm(self, A: PETSc.Mat) -> float:
+        """``||K||_inf`` of the free rows: the largest sum of absolute values over the free rows
+        of ``A`` (collective)."""
+        indptr, _, values = A.getValuesCSR()
+        rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+        sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
+        free = self.disc.constraints.owned_free
+        return self.disc.comm.allreduce(float(sums[free].max(initial=0.0)), op=MPI.MAX)
+
+    def __call__(self, x: PETSc.Vec, g: np.ndarray, stiffness: float) -> float:
+        """The absolute tolerance at the state ``x`` with the values ``g`` of the owned
+        constrained unknowns and the free-row norm ``stiffness`` of the tangent:
+        ``F_c = stiffness max(||x||_inf, ||g||_inf) + ||f||_inf`` with ``f`` the external force at
+        the balance's load factor. Sets :attr:`roundoff` to ``eps F_c`` (collective)."""
+        g_norm = self.disc.comm.allreduce(float(np.abs(g).max(initial=0.0)), op=MPI.MAX)
+        force = stiffness * max(x.norm(PETSc.NormType.INFINITY), g_norm) + self.equilibrium.external_force_norm()
+        eps = float(np.finfo(np.float64).eps)
+        self.roundoff = eps * force
+        return max(ATOL_ROUNDOFF_FACTOR * eps * force, FLOOR_FACTOR * eps * stiffness * self.floor_length)
+
+
 class SNESNewton:
     """PETSc SNES (Newton with line search) for ``R(x; λ) = 0`` with constrained rows ``x_c = g_c``.
 
@@ -316,7 +369,7 @@ class SNESNewton:
     options
         PETSc options for this solver, keys without prefix (override the command line and the
         defaults; module docstring). Without ``snes_atol`` the absolute tolerance follows the
-        round-off level of the residual (:meth:`absolute_tolerance`).
+        round-off level of the residual (:class:`AbsoluteTolerance`).
     prefix
         Options prefix of the SNES, KSP and PC.
     linear_solver
@@ -336,9 +389,8 @@ class SNESNewton:
         self.prefix = prefix
         self.g = np.zeros(0)        # prescribed values of the owned constrained unknowns, of the current solve
         self._stiffness = 0.0       # ||K||_inf of the free rows, at the tangent of the start state of the current solve
-        #: h sqrt(n) of the residual's round-off floor r_0 = eps ||K||_inf h sqrt(n) (module docstring)
-        self.floor_length = node_spacing(disc) * float(np.sqrt(disc.num_dofs_global))
-        self.roundoff = 0.0         # eps F_c at the last :meth:`absolute_tolerance`
+        #: the default absolute tolerance (used unless ``snes_atol`` is given: :attr:`scaled_atol`)
+        self.tolerance = AbsoluteTolerance(equilibrium)
         self.A = disc.create_matrix()
         self.A.setNearNullSpace(rigid_body_modes(disc.x_nodes, disc.n_owned_nodes, disc.create_vector))
         self.b = disc.create_vector()
@@ -419,7 +471,7 @@ class SNESNewton:
             self.equilibrium.tangent(x, A)
         self._start_state_current = False
         if self.scaled_atol:
-            snes.setTolerances(atol=self.absolute_tolerance(x))
+            snes.setTolerances(atol=self.tolerance(x, self.g, self._stiffness))
         # SNES solves A y = F with its F at x (self.b, just evaluated): the constraints' lifting goes
         # into F for the linear solve, and :meth:`_unlift` puts the residual back before the line search
         self.b.copy(self._unlifted)
@@ -442,7 +494,7 @@ class SNESNewton:
         its free-row norm sets the absolute tolerance before the first iteration, and the first
         Jacobian evaluation (at this state) uses it as it is (collective)."""
         self.equilibrium.tangent(x, self.A)
-        self._stiffness = self.free_row_norm(self.A)
+        self._stiffness = self.tolerance.free_row_norm(self.A)
         x.copy(self._start_state)
         self._start_state_current = True
 
@@ -455,31 +507,6 @@ class SNESNewton:
         same = diff.norm(PETSc.NormType.NORM_INFINITY) == 0.0
         diff.destroy()
         return same
-
-    def free_row_norm(self, A: PETSc.Mat) -> float:
-        """Largest sum of absolute values over the free rows of A (collective)."""
-        indptr, _, values = A.getValuesCSR()
-        rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
-        sums = np.bincount(rows, weights=np.abs(values), minlength=indptr.size - 1)
-        free = self.disc.constraints.owned_free
-        return self.comm.allreduce(float(sums[free].max(initial=0.0)), op=MPI.MAX)
-
-    def absolute_tolerance(self, x: PETSc.Vec, stiffness: float | None = None) -> float:
-        """The default absolute tolerance at the state x (collective).
-
-        ``max(ATOL_ROUNDOFF_FACTOR * eps * F_c, FLOOR_FACTOR * eps * ||K||_inf h sqrt(n))``,
-        ``F_c = ||K||_inf max(||x||_inf, ||g||_inf) + ||f||_inf``, with ``||K||_inf`` of the free
-        rows (``stiffness``; default: from the tangent at the start state of the current solve,
-        0 before any), ``g`` of the current solve, ``f`` the external force at its load factor
-        and ``h sqrt(n)`` :attr:`floor_length`; see the module docstring. Sets :attr:`roundoff`
-        to ``eps * F_c``.
-        """
-        stiffness = self._stiffness if stiffness is None else stiffness
-        g = self.comm.allreduce(float(np.abs(self.g).max(initial=0.0)), op=MPI.MAX)
-        force = stiffness * max(x.norm(PETSc.NormType.INFINITY), g) + self.equilibrium.external_force_norm()
-        eps = float(np.finfo(np.float64).eps)
-        self.roundoff = eps * force
-        return max(ATOL_ROUNDOFF_FACTOR * eps * force, FLOOR_FACTOR * eps * stiffness * self.floor_length)
 
     def solve(self, x: PETSc.Vec, g: np.ndarray, load: float = 1.0, energy_merit: bool = False) -> NewtonResult:
         """Solve from the state ``x`` (updated in place) with the values ``g`` of the owned
@@ -608,7 +635,7 @@ class SNESNewton:
             return NewtonResult(False, int(PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN), 0, [], float("nan"),
                                 -1, -1, failure="the start state is outside the energy's domain (non-finite tangent)")
         if self.scaled_atol:
-            self.snes.setTolerances(atol=self.absolute_tolerance(x))
+            self.snes.setTolerances(atol=self.tolerance(x, self.g, self._stiffness))
         self.snes.solve(None, x)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         reason = self.snes.getConvergedReason()
@@ -617,8 +644,8 @@ class SNESNewton:
         if not ok and self.worst_info is not None:
             info = self.worst_info                # where it went wrong, not where it started
         atol = self.snes.getTolerances()[1]
-        failure = "" if ok else _failure(reason, info, self.history, atol, self.roundoff if self.scaled_atol else None,
-                                         self.rejected)
+        roundoff = self.tolerance.roundoff if self.scaled_atol else None
+        failure = "" if ok else _failure(reason, info, self.history, atol, roundoff, self.rejected)
         if self.abandoned:
             failure = f"{self.abandoned}; {failure}"
         return NewtonResult(bool(ok), int(reason), len(self.history) - 1 if self.abandoned else
