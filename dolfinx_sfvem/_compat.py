@@ -6,8 +6,8 @@ its code path by what the installed API offers (an attribute, a parameter name, 
 kernel's argument count), never by comparing version strings. The rest of the package calls:
 
 - mesh creation with a user-given cell distribution (:func:`create_triangle_mesh`) or DOLFINx's
-  own partitioner (:func:`create_mesh_partitioned`), the ufl domain of an affine mesh
-  (:func:`coordinate_domain`), and the maps of local cells / geometry nodes / dofs back to their
+  own partitioner (:func:`create_mesh_partitioned`), the ufl domain of a mesh of degree-1
+  geometry (:func:`coordinate_domain`), and the maps of local cells / geometry nodes / dofs back to their
   input indices,
 - vector spaces, index maps and ghosted PETSc vectors (:func:`vector_function_space`,
   :func:`create_index_map`, :func:`create_petsc_vector`), ``atan2`` in UFL,
@@ -129,8 +129,9 @@ _CREATE_MESH_TAKES_GHOST_MODE = "ghost_mode" in inspect.signature(dolfinx.mesh.c
 
 
 def coordinate_domain(cell: str, gdim: int = 2) -> ufl.Mesh:
-    """The ufl domain of an affine mesh of ``cell`` s (``"triangle"``, ``"quadrilateral"``,
-    ``"tetrahedron"``, ``"hexahedron"``) in ``gdim`` dimensions."""
+    """The ufl domain of a mesh of ``cell`` s (``"triangle"``, ``"quadrilateral"``,
+    ``"tetrahedron"``, ``"hexahedron"``) in ``gdim`` dimensions with degree-1 geometry (affine
+    simplices, bilinear quadrilaterals, trilinear hexahedra)."""
     if _basix_ufl is None:             # UFL's own elements (DOLFINx 0.5)
         return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1, dim=gdim))
     return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(gdim,)))
@@ -169,7 +170,7 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
                  ghost_mode: dolfinx.mesh.GhostMode,
                  destinations: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None
                  ) -> dolfinx.mesh.Mesh:
-    """Distributed affine mesh of ``cell`` s, its coordinate element settled
+    """Distributed mesh of ``cell`` s of degree-1 geometry, its coordinate element settled
     (:func:`settle_coordinate_element`).
 
     Parameters
@@ -204,7 +205,7 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
 
 def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
                          destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
-    """Create a distributed affine triangle mesh with a prescribed cell distribution.
+    """Create a distributed (straight-sided) triangle mesh with a prescribed cell distribution.
 
     Parameters
     ----------
@@ -235,7 +236,7 @@ def create_triangle_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.ND
 
 def create_tetrahedron_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64],
                             destinations: npt.NDArray[np.int32]) -> dolfinx.mesh.Mesh:
-    """Create a distributed affine tetrahedron mesh with a prescribed cell distribution.
+    """Create a distributed (straight-sided) tetrahedron mesh with a prescribed cell distribution.
 
     As :func:`create_triangle_mesh`, with ``cells`` (n_cells, 4) and ``x`` (n_nodes, 3); in
     parallel every cell is also sent, as a ghost, to the owners of all cells that share a vertex
@@ -535,7 +536,7 @@ def vtx_writer(comm: MPI.Comm, path: str | pathlib.Path, functions: typing.Seque
 
 
 # --------------------------------------------------------------------------- P2 FEM reference
-#: vertex count -> the cell of an affine mesh of such cells
+#: vertex count -> the 2D cell with that many vertices
 _CELL = {3: "triangle", 4: "quadrilateral"}
 #: vertex count -> the columns that put DOLFINx's cell vertices counter-clockwise (DOLFINx
 #: numbers a quadrilateral's vertices in tensor-product order: (0, 0), (1, 0), (0, 1), (1, 1));
@@ -545,15 +546,15 @@ COUNTER_CLOCKWISE = {3: [0, 1, 2], 4: [0, 1, 3, 2]}
 
 def create_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], *,
                             ghost_facet_neighbours: bool = False, cell: str | None = None) -> dolfinx.mesh.Mesh:
-    """Distributed affine mesh partitioned by DOLFINx's graph partitioner.
+    """Distributed mesh of degree-1 geometry partitioned by DOLFINx's graph partitioner.
 
     Parameters
     ----------
     cells : (n_cells, k) int64
         Input cells held by this rank (usually all on rank 0, none elsewhere): without ``cell``,
         triangles or quadrilaterals with their vertices counter-clockwise; with ``cell``, in
-        DOLFINx's vertex order. Quadrilaterals and hexahedra must be parallelograms and
-        parallelepipeds for second derivatives of the geometry-mapped fields to be exact.
+        DOLFINx's vertex order. Quadrilaterals and hexahedra may be non-affine (bilinear,
+        trilinear maps): UFL differentiates their inverse Jacobian in second derivatives.
     x : (n_nodes, gdim) float64
         Input node coordinates held by this rank.
     ghost_facet_neighbours

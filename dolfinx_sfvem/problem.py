@@ -143,7 +143,7 @@ class ContactProblem:
     ----------
     mesh
         Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`; or a pair
-        ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (affine) and
+        ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (degree-1 geometry) and
         its region tags (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`
         (octree, Voronoi, extruded polygons; ``method="vem"`` only).
     materials

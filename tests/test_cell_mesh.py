@@ -61,16 +61,24 @@ def test_invalid_cells_are_named(tiny3d):
     with pytest.raises(ValueError, match="tetrahedron 1 .* zero volume"):
         flat = np.vstack([CUBE, [[0.5, 0.5, 0.0]]])
         CellMesh(flat, [[0, 1, 2, 4], [0, 1, 3, 8]], [1, 1], "tetrahedron")     # 0, 1, 3, 8 all on z = 0
-    skew = CUBE.copy()
-    skew[7] += [0.0, 0.0, 0.2]
-    with pytest.raises(ValueError, match="hexahedron 0 .* not a parallelepiped: its vertex 7"):
-        CellMesh(skew, [np.arange(8)], [1], "hexahedron")
+    tangled = CUBE.copy()
+    tangled[7] = [0.2, 0.2, 0.2]                     # past the centre: the determinant turns at vertex 7
+    with pytest.raises(ValueError, match="hexahedron 0 .* inverted or degenerate: .* at its vertex 7"):
+        CellMesh(tangled, [np.arange(8)], [1], "hexahedron")
     with pytest.raises(ValueError, match="not conforming"):
         CellMesh(CUBE, [[0, 1, 2, 4], [0, 2, 1, 7], [0, 1, 2, 6]], [1, 1, 1], "tetrahedron")
     with pytest.raises(ValueError, match="outside"):
         CellMesh(CUBE, [[0, 1, 2, 9]], [1], "tetrahedron")
     with pytest.raises(ValueError, match="cell type"):
         CellMesh(CUBE, [[0, 1, 2, 3]], [1], "prism")
+
+
+def test_hexahedron_that_is_not_a_parallelepiped_is_taken(tiny3d):
+    skew = tiny3d.CUBE.copy()
+    skew[7] += [0.0, 0.0, 0.2]                       # top face z = 1 + 0.2 x y: non-planar
+    mesh = CellMesh(skew, [np.arange(8)], [1], "hexahedron")
+    assert mesh.volumes == pytest.approx([1.05], rel=1e-14)
+    divergence_checks(mesh, mesh.boundary_facets()[0], 1.05)
 
 
 def test_mirrored_hexahedron_is_reordered(tiny3d):

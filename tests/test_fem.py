@@ -324,9 +324,11 @@ def test_q2_node_keys_are_unique_and_name_their_place(two_region_materials):
     assert np.allclose(disc.x_nodes[centre], disc.output_mesh.centroids[cell])
 
 
-def skewed_quads() -> sf.PolygonMesh:
-    """[0, 2] x [0, 1] in two quadrilaterals, the shared side slanted: not parallelograms."""
-    return sf.PolygonMesh([(0, 0), (1, 0), (2, 0), (0, 1), (1.2, 1), (2, 1)], [[0, 1, 4, 3], [1, 2, 5, 4]], [1, 1])
+def dented_quads() -> sf.PolygonMesh:
+    """[0, 2] x [0, 1] in three quadrilaterals, the first with a reflex corner at (0.3, 0.3): no
+    bilinear map (the other two, not parallelograms, would do)."""
+    return sf.PolygonMesh([(0, 0), (1, 0), (2, 0), (0, 1), (1, 1), (2, 1), (0.3, 0.3)],
+                          [[0, 1, 6, 3], [1, 2, 5, 4], [1, 4, 3, 6]], [1, 1, 1])
 
 
 @pytest.mark.parametrize("mesh, fem_mesh, message", [
@@ -334,7 +336,7 @@ def skewed_quads() -> sf.PolygonMesh:
      "all triangles or all quadrilaterals"),
     (lambda: sf.meshes.cbox(h_solid=0.1).mesh, lambda: sf.meshes.cbox_grid(h_solid=0.05, column=0.05).mesh,
      "region 2 has area"),
-    (lambda: sf.meshes.quad_rectangle(2.0, 1.0, 2, 1, tag=1), skewed_quads, "quadrilateral 0 is not a parallelogram"),
+    (lambda: sf.meshes.quad_rectangle(2.0, 1.0, 2, 1, tag=1), dented_quads, "quadrilateral 0 is not strictly convex"),
 ])
 def test_fem_mesh_is_checked(mesh, fem_mesh, message, two_region_materials):
     with pytest.raises(ValueError, match=message):

@@ -83,14 +83,16 @@ def test_extrude_of_a_quad_grid_has_the_expected_counts_volume_and_tags():
     assert face_areas(mesh.points, boundary_faces(mesh)).sum() == pytest.approx(outer, rel=1e-12)
 
 
-def test_extrude_refuses_other_polygons_hanging_nodes_and_non_parallelograms():
+def test_extrude_refuses_other_polygons_hanging_nodes_and_non_convex_quadrilaterals():
     with pytest.raises(ValueError, match="hanging node|vertices"):
         meshes.extrude(meshes.quads_with_hanging_nodes(1.0, 1.0, 4), 1.0, 1)
     with pytest.raises(ValueError, match="vertices"):
         meshes.extrude(meshes.polygon_rectangle(1.0, 1.0, 0.3), 1.0, 1)
     trapezoid = meshes.glue(([(0, 0), (2, 0), (1.5, 1), (0.5, 1)], [[0, 1, 2, 3]], [SOLID]))
-    with pytest.raises(ValueError, match="parallelogram"):
-        meshes.extrude(trapezoid, 1.0, 1)
+    assert meshes.extrude(trapezoid, 1.0, 2).volumes == pytest.approx([0.75, 0.75], rel=1e-14)   # non-affine
+    dart = meshes.glue(([(0, 0), (2, 0), (0.5, 0.5), (0, 2)], [[0, 1, 2, 3]], [SOLID]))
+    with pytest.raises(ValueError, match="polygon 0 is not strictly convex"):
+        meshes.extrude(dart, 1.0, 1)
     with pytest.raises(ValueError, match="layers"):
         meshes.extrude(meshes.quad_rectangle(1.0, 1.0, 2, 2), 1.0, 0)
 

@@ -1,9 +1,12 @@
 """Degree-2 Lagrange FEM on the same UFL energy: the reference the SFVEM is compared with.
 
 P2 on triangles, a triangulation of the polygon mesh's regions by default; or the cells of a
-given mesh (``fem_mesh``): P2 on its triangles, Q2 on its parallelograms; in 3D the cells of a
+given mesh (``fem_mesh``): P2 on its triangles, Q2 on its quadrilaterals; in 3D the cells of a
 :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` (:meth:`LagrangeDiscretization.from_cell_mesh`): P2
-on tetrahedra, Q2 on parallelepipeds. The total energy
+on tetrahedra, Q2 on hexahedra. The geometry is degree 1: affine simplices, bilinear
+quadrilaterals and trilinear hexahedra, which need not be parallelograms/parallelepipeds (UFL
+differentiates the inverse Jacobian of a non-affine cell, so G below is right on it; a quadratic
+field is in the Q2 space of such a cell and its G is exact). The total energy
 (paper Eq. 46 with the FEM interpolation in place of the projections)
 
     Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
@@ -12,7 +15,8 @@ is one UFL form with each region's parameters as ``fem.Constant`` s, so a single
 FFCx-compiled form serves every parameter value. The residual is ``ufl.derivative`` of
 Π and the tangent the derivative of the residual: no derivative is written by hand.
 ``G_ijk = ∂F_ij/∂X_k = ∂²u_i/∂X_j∂X_k`` is taken cell by cell (constant in a P2 triangle,
-linear in each direction in a Q2 parallelogram): the broken second gradient, without
+linear in each direction in a Q2 parallelogram, rational in a non-affine Q2 cell): the broken
+second gradient, without
 inter-element jump terms (as the SFVEM's G is polygon-wise).
 
 The class fulfils the contract of :class:`~dolfinx_sfvem.discretizations.discretization.Discretization`, as
@@ -23,7 +27,8 @@ linear and G constant in a P2 triangle, so the small-strain part of every energy
 linear-elastic tangent are polynomials of degree 2, the regularizations' G:G of degree 0 and the
 P2 mass matrix (body forces) of degree 4: degree 4 integrates all of these exactly and leaves two
 orders for the non-polynomial factors (ln J, J^(-2/3), exp(-βJ), atan); 3 x 3 Gauss is exact for
-the Q2 linear-elastic part on parallelograms. A region whose energy asks for
+the Q2 linear-elastic part on parallelograms (on non-affine cells the integrands are rational and
+the rule is not exact). A region whose energy asks for
 ``quadrature="lobatto"`` (:attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature`) is integrated
 with the Gauss-Lobatto rule :data:`LOBATTO_RULE` instead, whose points are the Q2 nodes
 (quadrilaterals and hexahedra only): ψ and ln J are then evaluated at the cell's corners, where a
@@ -60,7 +65,7 @@ from dolfinx_sfvem.discretizations.injectivity import folded_elements, gather_co
 from dolfinx_sfvem.output.logs import say
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
 from dolfinx_sfvem.mesh.cell_mesh import (
-    CELL_TYPES, CellMesh, gather_cells, reference_edges, reference_facets, reference_vertices)
+    CELL_TYPES, CellMesh, gather_cells, jacobian_determinants, reference_edges, reference_facets, reference_vertices)
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
 from dolfinx_sfvem.mesh.remesh import matched_triangulation, triangulate
 
@@ -116,11 +121,12 @@ def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | N
                          f"not polygons with {', '.join(map(str, counts))} vertices")
     cells = fem_mesh.vertices.reshape(-1, counts[0]).astype(np.int64)
     x = fem_mesh.points[cells]
-    if counts[0] == 4:
-        skew = np.linalg.norm(x[:, 0] + x[:, 2] - x[:, 1] - x[:, 3], axis=1)
-        if skew.max() > fem_mesh.tol:
-            raise ValueError(f"fem_mesh quadrilateral {int(np.argmax(skew))} is not a parallelogram "
-                             "(Q2 second derivatives need affine cells)")
+    if counts[0] == 4:                  # the bilinear map of a counter-clockwise quad: J > 0 iff convex
+        det = jacobian_determinants(x[:, _compat.COUNTER_CLOCKWISE[4]], "quadrilateral")
+        bad = np.flatnonzero(det.min(axis=1) <= fem_mesh.tol * np.abs(det).max(axis=1))
+        if bad.size:
+            raise ValueError(f"fem_mesh quadrilateral {int(bad[0])} is not strictly convex (the Jacobian "
+                             f"determinant of its bilinear map is {det[bad[0]].min():.3g} at a corner)")
     for tag in np.union1d(mesh.tags, fem_mesh.tags):
         a, b = (float(m.areas[m.tags == tag].sum()) for m in (mesh, fem_mesh))
         if abs(a - b) > 1e-9 * max(a, b):
@@ -137,8 +143,9 @@ class LagrangeDiscretization(Discretization):
     Parameters
     ----------
     mesh
-        Affine triangle or tetrahedron mesh, or quadrilateral/hexahedron mesh of
-        parallelograms/parallelepipeds (any partition, ghosted or not).
+        Triangle or tetrahedron mesh, or quadrilateral/hexahedron mesh, of degree-1 geometry (any
+        partition, ghosted or not); quadrilaterals and hexahedra need not be
+        parallelograms/parallelepipeds.
     cell_tags
         Region tag of every local cell (``dolfinx.mesh.meshtags`` of the cells' dimension).
     materials
@@ -414,7 +421,8 @@ class LagrangeDiscretization(Discretization):
             i.e. a comparison at matched DOFs.
         fem_mesh
             The FEM's own mesh of the same regions instead: its polygons, all triangles (P2)
-            or all parallelograms (Q2), are the cells (e.g. :func:`~dolfinx_sfvem.meshes.cbox_grid`).
+            or all strictly convex quadrilaterals (Q2, parallelograms or not), are the cells (e.g.
+            :func:`~dolfinx_sfvem.meshes.cbox_grid`).
             Its region areas must equal those of ``mesh``.
         jump_penalty
             η of the optional interior-penalty terms (class docstring).
@@ -450,7 +458,7 @@ class LagrangeDiscretization(Discretization):
                        comm: MPI.Comm = MPI.COMM_WORLD, *, quadrature_degree: int = QUADRATURE_DEGREE,
                        jump_penalty: float | None = None, verbose: bool = True) -> "LagrangeDiscretization":
         """The degree-2 Lagrange discretization on the cells of ``mesh`` (P2 on simplices, Q2 on
-        parallelograms/parallelepipeds), distributed by DOLFINx's partitioner from rank 0's copy;
+        quadrilaterals and hexahedra, affine or not), distributed by DOLFINx's partitioner from rank 0's copy;
         its :attr:`output_mesh` is ``mesh`` again (gathered back; the same points and cells).
         ``jump_penalty``: as in :class:`LagrangeDiscretization` (the cells across the partition's
         faces are then ghosted)."""

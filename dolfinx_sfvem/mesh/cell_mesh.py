@@ -4,15 +4,22 @@
 as the Lagrange FEM's :attr:`~dolfinx_sfvem.discretizations.fem.LagrangeDiscretization.output_mesh`: the
 points, the cells in DOLFINx's vertex order, a region tag per cell and the facets on the
 boundary of the mesh and between regions (the surfaces the contact checks, the pictures and
-the loads on faces use). Its cells are affine: simplices, or parallelograms/parallelepipeds
-(Q2's second derivatives are exact only on affine cells).
+the loads on faces use). Its cells are the images of the reference cell under the degree-1
+Lagrange map of their vertices: affine simplices; bilinear quadrilaterals and trilinear hexahedra,
+which need not be parallelograms/parallelepipeds (UFL differentiates the inverse Jacobian of such
+non-affine cells, so Q2's second derivatives are right on them too). A hexahedron's face may be
+non-planar: the bilinear surface through its four vertices. A cell is valid when the Jacobian
+determinant of its map has one sign, not near zero, at every vertex and at the centre
+(:func:`jacobian_determinants`); a cell where it changes sign (inverted, tangled) or vanishes
+(zero volume) is named in a ``ValueError``.
 
 Vertex order (DOLFINx's, :func:`basix.geometry`): a tetrahedron's reference vertices
 (0,0,0), (1,0,0), (0,1,0), (0,0,1); a hexahedron's in tensor-product order (0,0,0),
 (1,0,0), (0,1,0), (1,1,0), (0,0,1), ... A cell whose map from the reference cell has a
 negative Jacobian determinant (a left-handed tetrahedron, as gmsh may write) is reordered
-(its reference axes 0 and 1 swapped), so every cell of a :class:`CellMesh` has a positive
-volume.
+(its reference axes 0 and 1 swapped, which changes the sign of the determinant everywhere in the
+cell, affine or not), so every cell of a :class:`CellMesh` has a positive Jacobian determinant
+at its vertices and centre, and a positive volume.
 """
 from __future__ import annotations
 
@@ -28,18 +35,73 @@ from dolfinx_sfvem import _compat
 
 #: cell type -> (topological dimension, number of vertices)
 CELL_TYPES = {"triangle": (2, 3), "quadrilateral": (2, 4), "tetrahedron": (3, 4), "hexahedron": (3, 8)}
-#: tensor-product cells: their vertices are p_0 + J ξ for the reference vertices ξ, checked
+#: tensor-product cells: their degree-1 map is multilinear, its Jacobian varies over the cell
 _TENSOR = ("quadrilateral", "hexahedron")
 #: cell type -> the vertex permutation that swaps the reference axes 0 and 1 (mirrors the cell)
 _MIRROR = {"triangle": [0, 2, 1], "quadrilateral": [0, 2, 1, 3], "tetrahedron": [0, 2, 1, 3],
            "hexahedron": [0, 2, 1, 3, 4, 6, 5, 7]}
-#: relative tolerance of the affinity and volume checks (of the cell's longest edge)
+#: relative tolerance of the Jacobian checks (of the cell's diameter to the power tdim)
 TOLERANCE = 1e-9
+#: 2-point Gauss-Legendre rule on [0, 1]: exact for degree 3, so the rule of its tensor product
+#: integrates the multilinear map's Jacobian determinant (degree <= 2 per direction) exactly
+_GAUSS_2 = (0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0))
 
 
 def reference_vertices(cell_type: str) -> np.ndarray:
     """Reference coordinates (n_vertices, tdim) of the cell's vertices, DOLFINx's order."""
     return np.asarray(basix.geometry(getattr(basix.CellType, cell_type)), dtype=np.float64)
+
+
+def shape_gradients(cell_type: str, xi: npt.ArrayLike) -> np.ndarray:
+    """Reference gradients of the degree-1 Lagrange basis functions (one per vertex, DOLFINx's order).
+
+    Parameters
+    ----------
+    xi : (n_points, tdim)
+        Reference points.
+
+    Returns
+    -------
+    (n_points, n_vertices, tdim)
+        dφ_k/dξ_j at every point: constant on simplices, multilinear on quadrilaterals and
+        hexahedra (φ_k = Π_d (r_kd ξ_d + (1 - r_kd)(1 - ξ_d)) for the reference vertex r_k).
+    """
+    xi = np.asarray(xi, dtype=np.float64).reshape(-1, CELL_TYPES[cell_type][0])
+    ref = reference_vertices(cell_type)                                   # (k, tdim)
+    if cell_type not in _TENSOR:
+        grad = np.vstack([-np.ones(ref.shape[1]), np.eye(ref.shape[1])])   # φ_0 = 1 - Σ ξ, φ_k = ξ_k
+        return np.broadcast_to(grad, (xi.shape[0], *grad.shape)).copy()
+    factor = ref[None] * xi[:, None] + (1.0 - ref[None]) * (1.0 - xi[:, None])     # (n, k, tdim)
+    grad = np.empty_like(factor)
+    for j in range(ref.shape[1]):
+        others = np.prod(np.delete(factor, j, axis=2), axis=2)
+        grad[:, :, j] = others * (2.0 * ref[:, j] - 1.0)
+    return grad
+
+
+def jacobian_determinants(x: np.ndarray, cell_type: str, xi: npt.ArrayLike | None = None) -> np.ndarray:
+    """Jacobian determinants of the degree-1 maps of cells from their reference cell.
+
+    Parameters
+    ----------
+    x : (n_cells, n_vertices, tdim)
+        The cells' vertex coordinates, DOLFINx's order.
+    xi : (n_points, tdim), optional
+        Reference points; default: the reference vertices and the centre (the points where
+        :class:`CellMesh` checks its cells).
+
+    Returns
+    -------
+    (n_cells, n_points)
+        det(∂x/∂ξ) at every point (constant in a simplex; for a quadrilateral or hexahedron the
+        determinant at a vertex is that of the cell's edges from the vertex along the reference
+        axes).
+    """
+    if xi is None:
+        ref = reference_vertices(cell_type)
+        xi = np.vstack([ref, ref.mean(axis=0)])
+    J = np.einsum("cki,pkj->cpij", x, shape_gradients(cell_type, xi))
+    return np.linalg.det(J) if J.size else np.zeros(J.shape[:2])
 
 
 def reference_facets(cell_type: str) -> list[list[int]]:
@@ -58,7 +120,9 @@ def reference_edges(cell_type: str) -> list[list[int]]:
 def facet_normals(points: np.ndarray, facets: np.ndarray) -> np.ndarray:
     """Area-weighted normals (n, gdim) of facets (n, 2 | 3 | 4) given by their vertices in
     cyclic order: an edge (a, b) in 2D has the normal (b - a) turned clockwise; a triangle
-    (a, b, c) ½ (b - a) x (c - a); a planar quadrilateral (a, b, c, d) ½ (c - a) x (d - b)."""
+    (a, b, c) ½ (b - a) x (c - a); a quadrilateral (a, b, c, d) ½ (c - a) x (d - b), its area
+    vector if planar, else the integral of the normal over the bilinear face through its vertices
+    (the same for every surface bounded by its four sides)."""
     x = points[facets]
     if facets.shape[1] == 2:
         d = x[:, 1] - x[:, 0]
@@ -103,9 +167,9 @@ class CellMesh:
     Raises
     ------
     ValueError
-        Naming the cell: a cell of (nearly) zero volume, a quadrilateral/hexahedron that is not
-        a parallelogram/parallelepiped, a facet shared by more than two cells, bad shapes or
-        indices.
+        Naming the cell: a cell of (nearly) zero volume, an inverted or tangled cell (its Jacobian
+        determinant changes sign over its vertices and centre), a facet shared by more than two
+        cells, bad shapes or indices.
 
     Attributes
     ----------
@@ -146,30 +210,26 @@ class CellMesh:
 
     # ------------------------------------------------------------------ validation
     def _oriented(self, cells: np.ndarray) -> np.ndarray:
-        """The cells with a positive Jacobian determinant of their affine map (mirrored where it
-        is negative); ValueError naming a cell that is degenerate or not affine."""
-        ref = reference_vertices(self.cell_type)
+        """The cells with a positive Jacobian determinant at their vertices and centre (mirrored
+        where it is negative there); ValueError naming a cell where it vanishes or changes sign."""
         x = self.points[cells]                                      # (n, k, d)
-        axes = [1, 2, 4][:self.tdim] if self.cell_type == "hexahedron" else list(range(1, self.tdim + 1))
-        J = np.stack([x[:, a] - x[:, 0] for a in axes], axis=2)     # (n, d, d): columns along the reference axes
+        det = jacobian_determinants(x, self.cell_type)              # (n, k + 1)
         size = np.linalg.norm(x[:, :, None] - x[:, None], axis=3).max(axis=(1, 2)) if len(x) else np.zeros(0)
-        if self.cell_type in _TENSOR:
-            off = np.linalg.norm(x[:, 0, None] + np.einsum("nij,kj->nki", J, ref) - x, axis=2)   # (n, k)
-            bad = np.flatnonzero(off.max(axis=1) > TOLERANCE * size)
-            if bad.size:
-                c = int(bad[0])
-                shape = "parallelogram" if self.tdim == 2 else "parallelepiped"
-                raise ValueError(f"{self.cell_type} {c} (vertices {cells[c].tolist()}) is not a {shape}: its vertex "
-                                 f"{int(np.argmax(off[c]))} lies {off[c].max():.3g} off the affine map of vertices "
-                                 f"{[0] + axes}; Q2 second derivatives need affine cells")
-        det = np.linalg.det(J) if len(x) else np.zeros(0)
-        flat = np.flatnonzero(np.abs(det) <= TOLERANCE * size ** self.tdim)
-        if flat.size:
-            c = int(flat[0])
+        tol = TOLERANCE * size[:, None] ** self.tdim
+        positive, negative = np.all(det > tol, axis=1), np.all(det < -tol, axis=1)
+        bad = np.flatnonzero(~positive & ~negative)
+        if bad.size:
+            c = int(bad[0])
+            where = [f"vertex {k}" for k in range(det.shape[1] - 1)] + ["the centre"]
+            lo, hi = int(np.argmin(det[c])), int(np.argmax(det[c]))
+            what = "has zero volume" if np.all(np.abs(det[c]) <= tol[c]) else \
+                (f"is inverted or degenerate: the Jacobian determinant of its map from the reference cell is "
+                 f"{det[c, lo]:.3g} at its {where[lo]} and {det[c, hi]:.3g} at its {where[hi]} (it must "
+                 "have one sign, away from zero, at the vertices and the centre)")
             raise ValueError(f"{self.cell_type} {c} (vertices {cells[c].tolist()}, points "
-                             f"{np.round(self.points[cells[c]], 12).tolist()}) has zero volume")
+                             f"{np.round(self.points[cells[c]], 12).tolist()}) {what}")
         cells = cells.copy()
-        cells[det < 0] = cells[det < 0][:, _MIRROR[self.cell_type]]
+        cells[negative] = cells[negative][:, _MIRROR[self.cell_type]]
         return cells
 
     def _all_facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -209,12 +269,13 @@ class CellMesh:
 
     @property
     def volumes(self) -> np.ndarray:
-        """Volume (area in 2D) of every cell (n_cells,)."""
+        """Volume (area in 2D) of every cell (n_cells,), exact: the Jacobian determinant integrated
+        over the reference cell (constant on a simplex; 2-point Gauss per direction otherwise)."""
         x = self.points[self.cells]
-        axes = [1, 2, 4][:self.tdim] if self.cell_type == "hexahedron" else list(range(1, self.tdim + 1))
-        det = np.linalg.det(np.stack([x[:, a] - x[:, 0] for a in axes], axis=2))
-        simplex = self.cell_type in ("triangle", "tetrahedron")
-        return det / (6.0 if self.tdim == 3 else 2.0) if simplex else det
+        if self.cell_type not in _TENSOR:
+            return jacobian_determinants(x, self.cell_type)[:, 0] / (6.0 if self.tdim == 3 else 2.0)
+        xi = np.stack(np.meshgrid(*[_GAUSS_2] * self.tdim, indexing="ij"), axis=-1).reshape(-1, self.tdim)
+        return jacobian_determinants(x, self.cell_type, xi).sum(axis=1) / xi.shape[0]
 
     def boundary_facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The facets on the boundary of the mesh or between two different region tags.
@@ -259,7 +320,7 @@ class CellMesh:
     # ------------------------------------------------------------------ DOLFINx
     @classmethod
     def from_dolfinx(cls, mesh, cell_tags, region_names: typing.Mapping[str, int] | None = None) -> "CellMesh":
-        """The mesh of a (distributed) affine DOLFINx mesh and its cell tags, on every rank
+        """The mesh of a (distributed) DOLFINx mesh of degree-1 geometry and its cell tags, on every rank
         (collective). Points are ordered by their input index, cells by their input index;
         every cell must be tagged (ValueError naming an untagged one)."""
         tag = np.full(_compat.num_owned_cells(mesh) + mesh.topology.index_map(mesh.topology.dim).num_ghosts,

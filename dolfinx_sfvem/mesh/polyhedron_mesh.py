@@ -43,7 +43,7 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
-from dolfinx_sfvem.mesh.cell_mesh import CellMesh, facet_normals, reference_facets
+from dolfinx_sfvem.mesh.cell_mesh import TOLERANCE, CellMesh, facet_normals, reference_facets
 from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon import RTOL, point_location, self_intersection
@@ -576,7 +576,14 @@ class PolyhedronMesh:
     def from_cell_mesh(cls, mesh: CellMesh, **kwargs) -> "PolyhedronMesh":
         """The tetrahedra or hexahedra of a 3D :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` as polyhedra:
         cell ``c`` has the faces of DOLFINx's facet numbering (quadrilaterals in cyclic order),
-        oriented out of it; points, tags and region names kept."""
+        oriented out of it; points, tags and region names kept.
+
+        A non-planar quadrilateral face of a hexahedron (its vertices farther than
+        :data:`~dolfinx_sfvem.mesh.cell_mesh.TOLERANCE` times its diameter from one plane; a
+        hexahedron that is not a parallelepiped may have them) becomes two flat triangles, split
+        along the diagonal through its vertex of smallest index, the same in the two cells that
+        share it: the polyhedron keeps the vertices and takes the face as these two triangles, where
+        the trilinear hexahedron of the Lagrange FEM has the bilinear surface through them."""
         if mesh.tdim != 3:
             raise ValueError(f"from_cell_mesh: a 3D mesh of tetrahedra or hexahedra is needed, got {mesh.cell_type}")
         local = np.asarray(reference_facets(mesh.cell_type), dtype=np.int64)     # (n_local, k)
@@ -586,6 +593,29 @@ class PolyhedronMesh:
                            mesh.points[faces].mean(axis=1) - centre) < 0
         faces[inward] = faces[inward][:, ::-1]
         n_local, k = local.shape
-        return cls.from_cell_faces(mesh.points, np.arange(mesh.n_cells + 1) * n_local,
-                                   np.arange(faces.shape[0] + 1) * k, faces.ravel(), mesh.tags,
-                                   mesh.region_names, **kwargs)
+        if k == 3:
+            return cls.from_cell_faces(mesh.points, np.arange(mesh.n_cells + 1) * n_local,
+                                       np.arange(faces.shape[0] + 1) * k, faces.ravel(), mesh.tags,
+                                       mesh.region_names, **kwargs)
+        split = _non_planar(mesh.points, faces)
+        first = np.argmin(faces, axis=1)                        # rotate: the smallest vertex first
+        turned = faces[np.arange(faces.shape[0])[:, None], (first[:, None] + np.arange(4)) % 4]
+        pieces = np.where(split[:, None], turned[:, [0, 1, 2, 0, 2, 3]],
+                          np.concatenate([faces, np.full((faces.shape[0], 2), -1)], axis=1))
+        sizes = np.where(split[:, None], [3, 3], [4, 0]).ravel()
+        per_cell = (1 + split.reshape(mesh.n_cells, n_local)).sum(axis=1)
+        return cls.from_cell_faces(mesh.points, np.concatenate([[0], np.cumsum(per_cell)]),
+                                   np.concatenate([[0], np.cumsum(sizes[sizes > 0])]), pieces[pieces >= 0],
+                                   mesh.tags, mesh.region_names, **kwargs)
+
+
+def _non_planar(points: npt.NDArray[np.float64], quads: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+    """Which quadrilaterals (n, 4), vertices in cyclic order, are not planar: their vertices lie
+    ±h off the plane through their mean normal to their area vector (the same h for all four),
+    h > :data:`~dolfinx_sfvem.mesh.cell_mesh.TOLERANCE` times the longer diagonal."""
+    x = points[quads]
+    normal = facet_normals(points, quads)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    h = np.abs(np.einsum("ij,ij->i", x[:, 0] - x.mean(axis=1), normal))
+    diagonal = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
+    return h > TOLERANCE * diagonal

@@ -440,7 +440,7 @@ def thick_cylinder(a: float = 1.0, b: float = 2.0, h: float = 0.1, *, filled: bo
       radially onto the circles, so every boundary vertex lies on its circle;
     * ``"triangles"``: that triangle mesh itself (for P2 FEM and comparisons);
     * ``"quads"``: straight-sided quadrilaterals between the circles of N equal radial steps and
-      ``n_theta`` equal angle steps (not parallelograms: the Q2 FEM does not take them); the hole
+      ``n_theta`` equal angle steps (not parallelograms: bilinear cells for the Q2 FEM); the hole
       as an O-grid: a square of side a/2 with ``k N`` x ``k N`` quads and two mapped patches of
       ``k N`` x ``k N // 2`` quads between it and the arc.
 

@@ -11,7 +11,7 @@ from typing import Literal
 
 import numpy as np
 
-from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh, jacobian_determinants
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
 #: the cell types a structured grid can be made of
@@ -96,19 +96,21 @@ def extruded_points(mesh2d: PolygonMesh, depth: float, layers: int, caller: str)
 
 
 def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
-    """Hexahedra from a mesh of parallelograms: every quadrilateral swept from z = 0 to z = ``depth``
+    """Hexahedra from a mesh of convex quadrilaterals: every quadrilateral swept from z = 0 to z = ``depth``
     in ``layers`` equal layers.
 
     The polygons' tags and the mesh's ``region_names`` are kept (cell ``c + n_quads * layer``
     comes from polygon ``c``); point ``p + n_points * level`` is point ``p`` at z = level *
     depth / layers (points no polygon uses are dropped, the others keep their order).
-    Parallelograms give parallelepipeds, the affine hexahedra Q2 needs. The hexahedra are
+    Parallelograms give parallelepipeds, other quadrilaterals trilinear (non-affine) hexahedra with
+    planar faces, which Q2 takes too. The hexahedra are
     right-handed (the polygons are counter-clockwise in x-y, z points up).
 
     Parameters
     ----------
     mesh2d : PolygonMesh
-        Conforming mesh of parallelograms: every polygon has 4 vertices and no hanging node.
+        Conforming mesh of strictly convex quadrilaterals: every polygon has 4 vertices and no
+        hanging node.
     depth : float > 0
         Thickness in z.
     layers : int >= 1
@@ -117,7 +119,7 @@ def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
     Raises
     ------
     ValueError
-        Naming the first polygon that is not a quadrilateral or not a parallelogram, the hanging
+        Naming the first polygon that is not a quadrilateral or not strictly convex, the hanging
         nodes, or a bad depth or layer count.
     """
     points = extruded_points(mesh2d, depth, layers, "extrude")
@@ -131,11 +133,11 @@ def extrude(mesh2d: PolygonMesh, depth: float, layers: int) -> CellMesh:
                          f"{int(mesh2d.hanging_nodes[0])}); hexahedra must be conforming")
     quads = mesh2d.vertices.reshape(-1, 4)                      # counter-clockwise
     corners = mesh2d.points[quads]
-    skew = np.linalg.norm(corners[:, 0] - corners[:, 1] + corners[:, 2] - corners[:, 3], axis=1)
-    if np.any(skew > mesh2d.tol):
-        first = int(np.argmax(skew > mesh2d.tol))
-        raise ValueError(f"extrude: polygon {first} is not a parallelogram (its diagonals' midpoints are "
-                         f"{skew[first]:.3g} apart); Q2 hexahedra must be affine")
+    det = jacobian_determinants(corners[:, [0, 1, 3, 2]], "quadrilateral")     # > 0 at the corners iff convex
+    bad = np.flatnonzero(det.min(axis=1) <= mesh2d.tol * np.abs(det).max(axis=1))
+    if bad.size:
+        raise ValueError(f"extrude: polygon {int(bad[0])} is not strictly convex (the Jacobian determinant of "
+                         f"its bilinear map is {det[bad[0]].min():.3g} at a corner): no valid hexahedron")
     n = mesh2d.points.shape[0]
     face = quads[:, [0, 1, 3, 2]]                               # DOLFINx's quadrilateral order
     hexahedra = np.concatenate([np.hstack([face + k * n, face + (k + 1) * n]) for k in range(layers)])
