@@ -773,6 +773,21 @@ class ByHand:
         J = np.linalg.det(F)
         return K / 2 * np.log(J) ** 2 + mu / 2 * (J ** (-2 / 3) * np.sum(F * F) - 3)
 
+    @staticmethod
+    def neo_hooke_P(F, K, mu):
+        """First Piola stress of Eq. 2 in 3D (3, 3)."""
+        J = np.linalg.det(F)
+        Finv_T = np.linalg.inv(F).T
+        return K * np.log(J) * Finv_T + mu * J ** (-2 / 3) * (F - np.trace(F.T @ F) / 3 * Finv_T)
+
+    @classmethod
+    def uniaxial(cls, K, mu, stretch):
+        """(lateral stretch s, P_11) of the uniaxial stress state F = diag(1 + stretch, s, s) of Eq. 2."""
+        import scipy.optimize
+        s = scipy.optimize.brentq(lambda s: cls.neo_hooke_P(np.diag([1 + stretch, s, s]), K, mu)[1, 1], 0.8, 1.0,
+                                  xtol=1e-15)
+        return s, cls.neo_hooke_P(np.diag([1 + stretch, s, s]), K, mu)[0, 0]
+
     @classmethod
     def psi(cls, energy, F, G):
         """Psi of a Hyperelastic, or of a ThirdMedium with the "huhu" regularization and the beta
