@@ -306,7 +306,7 @@ class ThirdMedium(Energy):
     beta1 : float >= 0 or None
         Weight of a skew penalty ``beta1/2 |w(F)|^2`` (w from :func:`skew_axial`), added outside
         the factor gamma: the local part of the rotation regularization of Wriggers et al. 2025
-        (their Pi_R = beta1/2 |w - p/d|^2 + beta2/2 |grad p|^2 with the auxiliary field p = 0).
+        (their ``Pi_R = beta1/2 |w - p/d|^2 + beta2/2 |grad p|^2`` with the auxiliary field p = 0).
         None (default): no such term.
     """
 
