@@ -17,7 +17,7 @@ from dolfinx_sfvem.meshing.diagnostics import describe, t_junctions
 from dolfinx_sfvem.meshing.dual import dual_polygons
 from dolfinx_sfvem.meshing.gmsh_duals import polygon_rectangle
 from dolfinx_sfvem.meshing.gmsh_io import from_gmsh, gmsh_session, model_cells, region_names, write_gmsh
-from dolfinx_sfvem.meshing.gmsh3d import from_gmsh_3d
+from dolfinx_sfvem.meshing.gmsh3d import from_gmsh_3d, read_gmsh
 from dolfinx_sfvem.meshing.grids import quad_rectangle, quads_with_hanging_nodes
 from dolfinx_sfvem.meshing.hexahedra import box_grid, extrude, split_hexahedra
 from dolfinx_sfvem.meshing.octree import OctreeMesh, octree_box
@@ -31,7 +31,7 @@ from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 __all__ = ["SOLID", "MEDIUM", "CBOX_COLUMN", "Arc", "Benchmark", "cbox", "cbox_grid", "box", "punch", "multi_object",
            "thick_cylinder", "shallow_arch", "BASE_LAYER", "FIRST_CHAMBER", "PneuNet", "pneumatic_actuator",
            "PolygonSet", "glue", "dual_polygons", "quad_rectangle", "quads_with_hanging_nodes", "polygon_rectangle",
-           "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
+           "read_gmsh", "from_gmsh", "gmsh_session", "model_cells", "region_names", "write_gmsh", "read_polygons",
            "write_polygons", "NPZ_FORMAT", "describe", "t_junctions",
            "SPHERE", "Benchmark3D", "Plane", "SphereSurface", "PneuNet3D", "cbox3d", "hertz3d", "hertz3d_octree",
            "thick_sphere", "pneunet3d", "extrude", "box_grid", "split_hexahedra", "from_gmsh_3d",

@@ -32,6 +32,7 @@ from petsc4py import PETSc
 from dolfinx_sfvem.output import post
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.named_boundaries import facet_marker
 from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap
 from dolfinx_sfvem.physics.contact_checks import solid_boundary
 from dolfinx_sfvem.physics.energy import Energy
@@ -49,8 +50,11 @@ from dolfinx_sfvem.path_following.stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
 Value = typing.Union[float, typing.Callable[[np.ndarray], np.ndarray]]
-#: where a load acts: a marker function of the coordinates, or region tags / names
+#: where a load acts: a marker function of the coordinates, region tags / names, or names of the
+#: mesh's boundaries (``mesh.boundary_names``)
 Where = typing.Union[Marker, int, str, typing.Iterable[typing.Union[int, str]]]
+#: the nodes a boundary condition selects: a marker function, or names of the mesh's boundaries
+Selection = typing.Union[Marker, str, typing.Iterable[str]]
 
 
 @dataclass
@@ -112,6 +116,7 @@ def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh | PolyhedronMesh:
         polygons = PolygonMesh(mesh.points, mesh.cells[:, COUNTER_CLOCKWISE[mesh.cells.shape[1]]], mesh.tags,
                                insert_hanging_nodes=False)
         polygons.region_names.update(mesh.region_names)
+        polygons.boundary_names.update(mesh.boundary_names)
         return polygons
     if not isinstance(mesh, (PolygonMesh, CellMesh, PolyhedronMesh)):
         raise ValueError(f"mesh: give a PolygonMesh, a CellMesh, a PolyhedronMesh or a pair (dolfinx mesh, cell tags), not "
@@ -268,18 +273,22 @@ class ContactProblem:
         self.load = 0.0
 
     # ------------------------------------------------------------------ boundary conditions
-    def fix(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None,
+    def fix(self, marker: Selection | None = None, tags: typing.Iterable[int] | None = None,
             components: typing.Iterable[int | str] | str | None = None, name: str = "fixed") -> BoundaryCondition:
         """u_i = 0 for the given components (0 or "x", 1 or "y", 2 or "z"; a string such as
-        ``"xz"`` names several; None: all) on the selected nodes."""
+        ``"xz"`` names several; None: all) on the selected nodes: those where ``marker(x)`` is
+        true, or, for a name or names of the mesh's ``boundary_names`` (the physical curves or
+        surfaces of :func:`~dolfinx_sfvem.meshes.read_gmsh`), those on these boundaries; and/or
+        those of the regions ``tags``."""
         components = range(self.gdim) if components is None else components
-        return self._add(BoundaryCondition(name, {_component(c, name, self.gdim): 0.0 for c in components}, marker,
-                                           None if tags is None else tuple(tags)))
+        return self._add(BoundaryCondition(name, {_component(c, name, self.gdim): 0.0 for c in components},
+                                           self._selection(marker, name), None if tags is None else tuple(tags)))
 
-    def prescribe(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None, *,
+    def prescribe(self, marker: Selection | None = None, tags: typing.Iterable[int] | None = None, *,
                   ux: Value | None = None, uy: Value | None = None, uz: Value | None = None,
                   name: str = "load") -> BoundaryCondition:
-        """u_x = λ ux, u_y = λ uy and/or u_z = λ uz (3D) on the selected nodes, λ the load factor.
+        """u_x = λ ux, u_y = λ uy and/or u_z = λ uz (3D) on the selected nodes (as in :meth:`fix`),
+        λ the load factor.
 
         ``ux``/``uy``/``uz`` are numbers or functions of the coordinates ``x`` (d, n) returning (n,).
         """
@@ -291,7 +300,8 @@ class ContactProblem:
                                                                         "ux, uy and/or uz"))
         if not all(callable(v) or np.isfinite(v) for v in values.values()):
             raise ValueError(f"boundary condition {name!r}: prescribed values must be finite, got {values}")
-        return self._add(BoundaryCondition(name, values, marker, None if tags is None else tuple(tags)))
+        return self._add(BoundaryCondition(name, values, self._selection(marker, name),
+                                           None if tags is None else tuple(tags)))
 
     def _add(self, bc: BoundaryCondition) -> BoundaryCondition:
         if bc.marker is None and bc.tags is None:
@@ -363,8 +373,9 @@ class ContactProblem:
     def traction(self, where: Where, t: typing.Sequence[float], name: str = "traction") -> Traction:
         """Dead traction ``t`` = (t_x, t_y) per unit reference length, λ t at load factor λ, on the
         boundary edges of ``where``: a marker function of the coordinates (2, n) -> (n,) bool
-        (the edges whose vertices and midpoint it selects) or region tags/names (the boundary
-        edges of those regions). Paper Eq. 1, the t̄ term. In 3D ``t`` = (t_x, t_y, t_z) per unit
+        (the edges whose vertices and midpoint it selects), region tags/names (the boundary
+        edges of those regions) or names of the mesh's ``boundary_names`` (the edges on those
+        boundaries, :func:`~dolfinx_sfvem.meshes.read_gmsh`). Paper Eq. 1, the t̄ term. In 3D ``t`` = (t_x, t_y, t_z) per unit
         reference area on the boundary faces (:mod:`~dolfinx_sfvem.physics.face_loads`)."""
         t = self._finite_vector(t, name, "t")
         return self._add_load(Traction(name, self._where(where, name), t))
@@ -438,7 +449,47 @@ class ContactProblem:
         return tuple(tags)
 
     def _where(self, where: Where, name: str) -> Marker | tuple[int, ...]:
-        return where if callable(where) else self._region_tags(where, name)
+        """A marker for a marker or names of boundaries, region tags for region tags or names
+        (ValueError for a name of neither or of both, or for boundaries mixed with regions)."""
+        if callable(where):
+            return where
+        items = [where] if isinstance(where, (int, str, np.integer)) else list(where)
+        boundaries = getattr(self.mesh, "boundary_names", {})
+        named = [item for item in items if isinstance(item, str) and item in boundaries]
+        both = [item for item in named if item in self.mesh.region_names]
+        if both:
+            raise ValueError(f"load {name!r}: {both[0]!r} names a region and a boundary of the mesh; give the "
+                             "region by its tag or the boundary by a marker")
+        unknown = [item for item in items if isinstance(item, str) and item not in boundaries
+                   and item not in self.mesh.region_names]
+        if unknown:
+            raise ValueError(f"load {name!r}: {unknown[0]!r} is neither a region name (the mesh's: "
+                             f"{sorted(self.mesh.region_names)}) nor a boundary name (the mesh's: {sorted(boundaries)})")
+        if not named:
+            return self._region_tags(items, name)
+        if len(named) < len(items):
+            raise ValueError(f"load {name!r}: give boundaries or regions, not both ({items!r})")
+        return self._boundary_marker(named, name)
+
+    def _selection(self, marker: Selection | None, name: str) -> Marker | None:
+        """The marker of a boundary condition: ``marker`` itself, or that of the named boundaries."""
+        if marker is None or callable(marker):
+            return marker
+        names = [marker] if isinstance(marker, str) else list(marker)
+        if not all(isinstance(item, str) for item in names):
+            raise ValueError(f"boundary condition {name!r}: give a marker function or boundary names, not {marker!r}")
+        return self._boundary_marker(names, name)
+
+    def _boundary_marker(self, names: list[str], name: str) -> Marker:
+        """A marker true on the boundaries ``names`` of the mesh (ValueError naming an unknown one
+        and listing the mesh's)."""
+        boundaries = getattr(self.mesh, "boundary_names", {})
+        unknown = [item for item in names if item not in boundaries]
+        if unknown or not names:
+            raise ValueError(f"{name!r}: {unknown[0] if unknown else names!r} is not a named boundary of the mesh "
+                             f"(its boundaries: {sorted(boundaries) or 'none; meshes.read_gmsh names them'})")
+        facets = np.concatenate([boundaries[item] for item in names])
+        return facet_marker(self.mesh.points, facets, "+".join(names))
 
     def equilibrium(self) -> Equilibrium:
         """The balance R(u; λ) with the loads bound to the current discretization (collective;

@@ -32,6 +32,7 @@ from mpi4py import MPI
 import basix
 
 from dolfinx_sfvem import _compat
+from dolfinx_sfvem.mesh.named_boundaries import boundary_names_check
 
 #: cell type -> (topological dimension, number of vertices)
 CELL_TYPES = {"triangle": (2, 3), "quadrilateral": (2, 4), "tetrahedron": (3, 4), "hexahedron": (3, 8)}
@@ -163,23 +164,28 @@ class CellMesh:
         ``"tetrahedron"``, ``"hexahedron"``, ``"triangle"`` or ``"quadrilateral"``.
     region_names
         Name -> tag of named regions (every tag must be one of ``tags``).
+    boundary_names
+        Name -> facets (m, 2 | 3 | 4) of a named boundary (the physical surfaces of a gmsh model, the
+        curves in 2D), as vertex indices; every row must be a facet of the mesh. Boundary
+        conditions and loads take them by name (:mod:`~dolfinx_sfvem.mesh.named_boundaries`).
 
     Raises
     ------
     ValueError
         Naming the cell: a cell of (nearly) zero volume, an inverted or tangled cell (its Jacobian
         determinant changes sign over its vertices and centre), a facet shared by more than two
-        cells, bad shapes or indices.
+        cells, a named boundary facet that is no facet of the mesh, bad shapes or indices.
 
     Attributes
     ----------
-    points, cells, tags, region_names, cell_type
+    points, cells, tags, region_names, boundary_names, cell_type
         As given (cells with a negative orientation reordered, module docstring).
     gdim, tdim : int
     """
 
     def __init__(self, points: npt.ArrayLike, cells: npt.ArrayLike, tags: npt.ArrayLike, cell_type: str,
-                 region_names: typing.Mapping[str, int] | None = None):
+                 region_names: typing.Mapping[str, int] | None = None,
+                 boundary_names: typing.Mapping[str, npt.ArrayLike] | None = None):
         if cell_type not in CELL_TYPES:
             raise ValueError(f"cell type {cell_type!r}: use one of {', '.join(CELL_TYPES)}")
         self.cell_type = cell_type
@@ -207,6 +213,7 @@ class CellMesh:
         if unknown:
             raise ValueError(f"region names {unknown} name tags that no cell has")
         self._facets = self._all_facets()
+        self.boundary_names = self._named_facets(boundary_names or {})
 
     # ------------------------------------------------------------------ validation
     def _oriented(self, cells: np.ndarray) -> np.ndarray:
@@ -257,6 +264,18 @@ class CellMesh:
         other = np.flatnonzero(np.arange(inverse.size) != first[inverse])   # the second cell of a shared facet
         neighbour[inverse[other]] = cell[other]
         return facets[first], cell[first], neighbour
+
+    def _named_facets(self, names: typing.Mapping[str, npt.ArrayLike]) -> dict[str, np.ndarray]:
+        """``boundary_names`` checked: every row a facet of the mesh (ValueError naming one that is not)."""
+        k = len(reference_facets(self.cell_type)[0])
+        named = boundary_names_check(names, self.n_points, (k,))
+        known = {tuple(f) for f in np.sort(self._facets[0], axis=1).tolist()}
+        for name, facets in named.items():
+            stray = [f for f in facets.tolist() if tuple(sorted(f)) not in known]
+            if stray:
+                raise ValueError(f"boundary {name!r}: {len(stray)} of its facets are no facets of the {self.cell_type} "
+                                 f"mesh, e.g. the one with vertices {stray[0]}")
+        return named
 
     # ------------------------------------------------------------------ queries
     @property

@@ -507,6 +507,10 @@ class PolygonMesh:
     region_names : dict[str, int]
         Region tag by name where known (set by :func:`~dolfinx_sfvem.meshes.from_gmsh` from the
         physical groups and by the benchmark generators); empty otherwise.
+    boundary_names : dict[str, (m, 2) int64]
+        Segments of named boundary curves by name, as point-index pairs (set by
+        :func:`~dolfinx_sfvem.meshes.read_gmsh` from the 1D physical groups); boundary conditions and
+        loads take them by name (:mod:`~dolfinx_sfvem.mesh.named_boundaries`). Empty otherwise.
     tol : float
         Absolute length tolerance (``RTOL`` times the bounding-box diagonal).
     hanging_nodes : (n_hanging,) int64
@@ -545,6 +549,7 @@ class PolygonMesh:
         offsets, vertices = _as_csr(polygons, self.points.shape[0])
         self.tags = _as_tags(tags, offsets.size - 1)
         self.region_names: dict[str, int] = {}
+        self.boundary_names: dict[str, npt.NDArray[np.int64]] = {}
         used = self.points[np.unique(vertices)]
         self.tol = RTOL * float(np.hypot(*(used.max(axis=0) - used.min(axis=0))))
         self.offsets, self.vertices = offsets, vertices
@@ -865,6 +870,7 @@ class PolygonMesh:
             refined = PolygonMesh(points, np.split(vertices, offsets[1:-1]), current.tags[parent],
                                   insert_hanging_nodes=False)
             refined.region_names = dict(self.region_names)
+            refined.boundary_names = dict(self.boundary_names)    # the same points, the same segments
             current, ancestor, chosen = refined, ancestor[parent], is_child
         split = np.bincount(ancestor, minlength=self.n_polygons) > 1
         return Refinement(self, current, ancestor, split, int(levels))

@@ -1,6 +1,7 @@
 """3D cell meshes from gmsh: the volume cells of a gmsh model (tetrahedra or hexahedra) as a
 :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`, from a ``.msh`` file, the caller's open model, or a
-geometry builder meshed in a gmsh session of our own.
+geometry builder meshed in a gmsh session of our own; and :func:`read_gmsh`, the reader of 2D and 3D
+models with their physical groups as regions and named boundaries.
 
 Parallel use: gmsh meshes identically on every rank (one thread, the same input), as the 2D
 generators do; the caller needs no rank logic. Only the cells' corner nodes are read: the cells
@@ -15,7 +16,9 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh
-from dolfinx_sfvem.meshing.gmsh_io import entity_regions, gmsh_session, region_names
+from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
+from dolfinx_sfvem.meshing.gmsh_io import (
+    check_grouped, entity_regions, gmsh_model, gmsh_session, named_boundaries, read_polygons_of_model, region_names)
 from dolfinx_sfvem.meshing.hexahedra import right_handed
 
 #: gmsh geometry builder of a 3D model: ``build(gmsh)`` creates the geometry in a fresh gmsh model
@@ -75,9 +78,48 @@ def model_volume_cells(gmsh, region_tags: Mapping[str, int] | None = None
     return points, cells, np.concatenate(tags), cell_type
 
 
+def read_gmsh(source: str | os.PathLike | None = None,
+              region_tags: Mapping[str, int] | None = None) -> PolygonMesh | CellMesh:
+    """The mesh of a gmsh ``.msh`` file or of the caller's current gmsh model, 2D or 3D, with its
+    physical groups as named regions and named boundaries.
+
+    A model with 3D elements gives a :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` of its
+    tetrahedra or hexahedra (:func:`from_gmsh_3d`), else a
+    :class:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh` of its 2D cells
+    (:func:`~dolfinx_sfvem.meshing.gmsh_io.from_gmsh`). The physical groups of the mesh's dimension
+    become regions (``region_names``, name -> tag: materials by name); the named ones of one
+    dimension less (surfaces in 3D, curves in 2D) become ``boundary_names``, which ``fix``,
+    ``prescribe``, ``traction`` and ``pressure`` of :class:`~dolfinx_sfvem.ContactProblem` take by
+    name. Only the corner nodes of the cells are read: second-order nodes are dropped (the cells
+    are straight-sided).
+
+    Parameters
+    ----------
+    source : path or None
+        A ``.msh`` file (read in a gmsh session of its own), or ``None`` for the current model of
+        the caller's open gmsh session (left open, its model current).
+    region_tags : mapping of physical-group name -> region tag, optional
+        Read the cells of these physical groups with these tags (a missing group is a ValueError
+        naming it). Default: every physical group of the mesh's dimension tagged by its number,
+        or all cells with tag 0 if the model has none.
+
+    Raises
+    ------
+    ValueError
+        For a model mixing tetrahedra and hexahedra (or with prisms or pyramids), or with cells
+        outside every physical group when the model has groups (and no ``region_tags`` select
+        some).
+    """
+    with gmsh_model(source) as gmsh:
+        if len(gmsh.model.mesh.getElementTypes(3)):
+            return _read_model(gmsh, region_tags)
+        return read_polygons_of_model(gmsh, region_tags)
+
+
 def from_gmsh_3d(source: str | os.PathLike | None = None,
                  region_tags: Mapping[str, int] | None = None) -> CellMesh:
-    """CellMesh of the 3D cells (tetrahedra or hexahedra) of a gmsh mesh.
+    """CellMesh of the 3D cells (tetrahedra or hexahedra) of a gmsh mesh (:func:`read_gmsh` reads
+    2D and 3D models alike).
 
     Parameters
     ----------
@@ -87,24 +129,20 @@ def from_gmsh_3d(source: str | os.PathLike | None = None,
     region_tags : mapping of physical-group name -> region tag, optional
         Read the volumes of these 3D physical groups with these tags (a missing group is a
         ValueError naming it). Default: every 3D physical group tagged by its number, or all
-        volumes with tag 0 if the model has none. ``region_names`` of the result: these, or the
-        named 3D physical groups.
+        volumes with tag 0 if the model has none; then a meshed volume outside every 3D physical
+        group is a ValueError. ``region_names`` of the result: these, or the named 3D physical
+        groups; ``boundary_names``: the named 2D physical groups, as faces (m, 3 | 4) of the mesh.
     """
-    if source is None:
-        import gmsh
-
-        return _read_model(gmsh, region_tags)
-    path = os.fspath(source)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(path)
-    with gmsh_session() as gmsh:
-        gmsh.merge(path)
+    with gmsh_model(source) as gmsh:
         return _read_model(gmsh, region_tags)
 
 
 def _read_model(gmsh, region_tags: Mapping[str, int] | None) -> CellMesh:
+    if region_tags is None:
+        check_grouped(gmsh, 3)
     points, cells, tags, cell_type = model_volume_cells(gmsh, region_tags)
-    return CellMesh(points, cells, tags, cell_type, region_names(gmsh, region_tags, dim=3))
+    return CellMesh(points, cells, tags, cell_type, region_names(gmsh, region_tags, dim=3),
+                    named_boundaries(gmsh, 3, points))
 
 
 def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],

@@ -12,6 +12,7 @@ import os
 from collections.abc import Iterator, Mapping
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.meshing.polygon_sets import PolygonSet, compact_points, length_tolerance, split_csr
@@ -133,12 +134,15 @@ def model_cells(gmsh, region_tags: Mapping[str, int] | None
 
 def from_gmsh(source: str | os.PathLike | None = None,
               region_tags: Mapping[str, int] | None = None) -> PolygonMesh:
-    """PolygonMesh of the 2D cells of a gmsh mesh, one polygon per cell.
+    """PolygonMesh of the 2D cells of a gmsh mesh, one polygon per cell
+    (:func:`~dolfinx_sfvem.meshes.read_gmsh` reads 2D and 3D models alike).
 
     Triangles, quadrilaterals and any other 2D element type of fixed size are read as
     polygons of their corner ("primary") nodes; higher-order nodes are ignored. The mesh's
     ``region_names`` (name -> tag) let :class:`~dolfinx_sfvem.ContactProblem` take materials keyed
-    by the physical groups' names. A gmsh session the caller has open stays open.
+    by the physical groups' names; its ``boundary_names`` (name -> (m, 2) point pairs, the segments
+    of the named 1D physical groups) let boundary conditions and loads take curves by name. A
+    gmsh session the caller has open stays open.
 
     Parameters
     ----------
@@ -148,24 +152,102 @@ def from_gmsh(source: str | os.PathLike | None = None,
     region_tags : mapping of physical-group name -> region tag, optional
         Read the surfaces of these 2D physical groups with these tags; a missing group is
         a ValueError naming it. Default: every 2D physical group, tagged by its number,
-        or all surfaces with tag 0 if the model has no 2D physical group.
+        or all surfaces with tag 0 if the model has no 2D physical group; then a meshed
+        surface outside every 2D physical group is a ValueError.
     """
+    with gmsh_model(source) as gmsh:
+        return read_polygons_of_model(gmsh, region_tags)
+
+
+@contextlib.contextmanager
+def gmsh_model(source: str | os.PathLike | None) -> Iterator[object]:
+    """The gmsh module with the model to read current: ``source`` merged into a session of our own
+    (:func:`gmsh_session`), or, for ``None``, the caller's current model."""
     if source is None:
         import gmsh
 
-        points, offsets, flat, tags = model_cells(gmsh, region_tags)
-        names = region_names(gmsh, region_tags)
-    else:
-        path = os.fspath(source)
-        if not os.path.isfile(path):
-            raise FileNotFoundError(path)
-        with gmsh_session() as gmsh:
-            gmsh.merge(path)
-            points, offsets, flat, tags = model_cells(gmsh, region_tags)
-            names = region_names(gmsh, region_tags)
+        yield gmsh
+        return
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(path)
+    with gmsh_session() as gmsh:
+        gmsh.merge(path)
+        yield gmsh
+
+
+def read_polygons_of_model(gmsh, region_tags: Mapping[str, int] | None) -> PolygonMesh:
+    """:func:`from_gmsh` of the current gmsh model."""
+    if region_tags is None:
+        check_grouped(gmsh, 2)
+    points, offsets, flat, tags = model_cells(gmsh, region_tags)
     mesh = PolygonSet(points, split_csr(offsets, flat), tags).to_mesh()
-    mesh.region_names = names
+    mesh.region_names = region_names(gmsh, region_tags)
+    mesh.boundary_names = named_boundaries(gmsh, 2, mesh.points)
     return mesh
+
+
+def check_grouped(gmsh, dim: int) -> None:
+    """ValueError naming an entity of dimension ``dim`` with elements that no ``dim``-dimensional
+    physical group holds, when the current model has such groups (its cells would be dropped)."""
+    groups = gmsh.model.getPhysicalGroups(dim)
+    if not groups:
+        return
+    grouped = {int(e) for _, group in groups for e in gmsh.model.getEntitiesForPhysicalGroup(dim, group)}
+    for _, entity in gmsh.model.getEntities(dim):
+        if entity not in grouped and len(gmsh.model.mesh.getElements(dim, entity)[1]):
+            names = sorted(gmsh.model.getPhysicalName(dim, group) or str(group) for _, group in groups)
+            raise ValueError(f"gmsh {'volume' if dim == 3 else 'surface'} {entity} has cells but belongs to none of "
+                             f"the model's {dim}D physical groups {names}; add it to one (or select groups by "
+                             "region_tags)")
+
+
+def named_boundaries(gmsh, dim: int, points: np.ndarray) -> dict[str, np.ndarray]:
+    """The named ``dim - 1``-dimensional physical groups of the current gmsh model (curves in 2D,
+    surfaces in 3D) as facets of the mesh read from it.
+
+    Parameters
+    ----------
+    points : (n, dim) float
+        The points of the mesh read from the model (the corner nodes of its cells).
+
+    Returns
+    -------
+    dict name -> (m, 2 | 3 | 4) int64
+        The group's elements as indices into ``points`` (corner nodes, gmsh's cyclic order);
+        those with a corner off the cells read (outside the selected physical groups) are left
+        out, and a group with none left.
+
+    Raises
+    ------
+    ValueError
+        For a named group without elements or with elements of two types.
+    """
+    node_tags, coords, _ = gmsh.model.mesh.getNodes()
+    order = np.argsort(node_tags)
+    xyz = coords.reshape(-1, 3)[order, :dim]
+    tree = cKDTree(points)
+    tol = length_tolerance(points)
+    out: dict[str, np.ndarray] = {}
+    for _, group in gmsh.model.getPhysicalGroups(dim - 1):
+        name = gmsh.model.getPhysicalName(dim - 1, group)
+        if not name:
+            continue
+        blocks = []
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(dim - 1, group):
+            for etype, enodes in zip(*gmsh.model.mesh.getElements(dim - 1, entity)[::2]):
+                _, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
+                corners = np.asarray(enodes, dtype=np.uint64).reshape(-1, n_nodes)[:, :n_corners]
+                blocks.append(xyz[np.searchsorted(node_tags, corners, sorter=order)])
+        if not blocks or len({block.shape[1] for block in blocks}) > 1:
+            raise ValueError(f"boundary {name!r}: the {dim - 1}D physical group has "
+                             f"{'no elements' if not blocks else 'elements of two types'}")
+        x = np.concatenate(blocks)
+        distance, index = tree.query(x.reshape(-1, dim))
+        read = (distance <= tol).reshape(x.shape[:2]).all(axis=1)
+        if read.any():
+            out[name] = index.reshape(x.shape[:2])[read].astype(np.int64)
+    return out
 
 
 def region_names(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) -> dict[str, int]:
