@@ -18,7 +18,8 @@ import numpy as np
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.meshing.gmsh_io import (
-    check_grouped, entity_regions, gmsh_model, gmsh_session, named_boundaries, read_polygons_of_model, region_names)
+    check_grouped, element_corners, entity_regions, gmsh_model, gmsh_session, named_boundaries, read_polygons_of_model,
+    region_names)
 from dolfinx_sfvem.meshing.hexahedra import right_handed
 
 #: gmsh geometry builder of a 3D model: ``build(gmsh)`` creates the geometry in a fresh gmsh model
@@ -59,12 +60,10 @@ def model_volume_cells(gmsh, region_tags: Mapping[str, int] | None = None
     node_order = np.argsort(node_tags)
     blocks, tags = [], []
     for entity, tag in entity_regions(gmsh, region_tags, dim=3).items():
-        for etype, enodes in zip(*gmsh.model.mesh.getElements(3, entity)[::2]):
-            name, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
-            if n_corners not in _CELL_TYPES:
+        for name, cells in element_corners(gmsh, 3, entity, node_tags, node_order):
+            if cells.shape[1] not in _CELL_TYPES:
                 raise ValueError(f"gmsh volume {entity} has {name} cells; only tetrahedra or hexahedra are read")
-            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
-            blocks.append(node_order[np.searchsorted(node_tags, cells, sorter=node_order)])
+            blocks.append(cells)
             tags.append(np.full(len(cells), tag, dtype=np.int64))
     if not blocks:
         raise ValueError("the gmsh model has no 3D elements in the selected volumes")

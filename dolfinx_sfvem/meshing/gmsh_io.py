@@ -99,6 +99,18 @@ def entity_regions(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) ->
     return regions
 
 
+def element_corners(gmsh, dim: int, entity: int, node_tags: np.ndarray, node_order: np.ndarray
+                    ) -> Iterator[tuple[str, np.ndarray]]:
+    """The elements of a ``dim``-dimensional entity of the current gmsh model, one block per
+    element type: (gmsh's type name, corner nodes (m, n_corners) as indices into the arrays of
+    ``gmsh.model.mesh.getNodes()``, whose tags are ``node_tags`` and ``node_order`` their argsort).
+    Higher-order nodes are dropped."""
+    for etype, enodes in zip(*gmsh.model.mesh.getElements(dim, entity)[::2]):
+        name, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
+        corners = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
+        yield name, node_order[np.searchsorted(node_tags, corners, sorter=node_order)]
+
+
 def model_cells(gmsh, region_tags: Mapping[str, int] | None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """All 2D cells of the current gmsh model as polygons of their corner nodes.
@@ -120,10 +132,8 @@ def model_cells(gmsh, region_tags: Mapping[str, int] | None
     node_order = np.argsort(node_tags)
     blocks, tags = [], []
     for entity, tag in entity_regions(gmsh, region_tags).items():
-        for etype, enodes in zip(*gmsh.model.mesh.getElements(2, entity)[::2]):
-            _, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
-            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
-            blocks.append(node_order[np.searchsorted(node_tags, cells, sorter=node_order)])
+        for _, cells in element_corners(gmsh, 2, entity, node_tags, node_order):
+            blocks.append(cells)
             tags.append(np.full(len(cells), tag, dtype=np.int32))
     if not blocks:
         raise ValueError("the gmsh model has no 2D elements in the selected surfaces")
@@ -224,8 +234,8 @@ def named_boundaries(gmsh, dim: int, points: np.ndarray) -> dict[str, np.ndarray
         For a named group without elements or with elements of two types.
     """
     node_tags, coords, _ = gmsh.model.mesh.getNodes()
-    order = np.argsort(node_tags)
-    xyz = coords.reshape(-1, 3)[order, :dim]
+    node_order = np.argsort(node_tags)
+    xyz = coords.reshape(-1, 3)[:, :dim]
     tree = cKDTree(points)
     tol = length_tolerance(points)
     out: dict[str, np.ndarray] = {}
@@ -235,10 +245,8 @@ def named_boundaries(gmsh, dim: int, points: np.ndarray) -> dict[str, np.ndarray
             continue
         blocks = []
         for entity in gmsh.model.getEntitiesForPhysicalGroup(dim - 1, group):
-            for etype, enodes in zip(*gmsh.model.mesh.getElements(dim - 1, entity)[::2]):
-                _, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
-                corners = np.asarray(enodes, dtype=np.uint64).reshape(-1, n_nodes)[:, :n_corners]
-                blocks.append(xyz[np.searchsorted(node_tags, corners, sorter=order)])
+            for _, corners in element_corners(gmsh, dim - 1, entity, node_tags, node_order):
+                blocks.append(xyz[corners])
         if not blocks or len({block.shape[1] for block in blocks}) > 1:
             raise ValueError(f"boundary {name!r}: the {dim - 1}D physical group has "
                              f"{'no elements' if not blocks else 'elements of two types'}")
