@@ -261,3 +261,4 @@ def test_skew_penalty_adds_beta1_half_w_squared(theta):
     unregularized = penalised.unregularized_params()
     assert unregularized["beta1"] == 0.0 and unregularized["alpha_r"] == 0.0
     assert penalised.key != plain.key
+    assert "skew penalty" in penalised.name and "skew" not in plain.name

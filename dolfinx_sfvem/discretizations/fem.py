@@ -65,7 +65,8 @@ from dolfinx_sfvem.discretizations.injectivity import folded_elements, gather_co
 from dolfinx_sfvem.output.logs import say
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
 from dolfinx_sfvem.mesh.cell_mesh import (
-    CELL_TYPES, CellMesh, gather_cells, jacobian_determinants, reference_edges, reference_facets, reference_vertices)
+    CELL_TYPES, TOLERANCE, CellMesh, gather_cells, jacobian_determinants, reference_edges, reference_facets,
+    reference_vertices)
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
 from dolfinx_sfvem.mesh.remesh import matched_triangulation, triangulate
 
@@ -123,7 +124,7 @@ def _fem_cells(mesh: PolygonMesh, fem_h: float | None, fem_mesh: PolygonMesh | N
     x = fem_mesh.points[cells]
     if counts[0] == 4:                  # the bilinear map of a counter-clockwise quad: J > 0 iff convex
         det = jacobian_determinants(x[:, _compat.COUNTER_CLOCKWISE[4]], "quadrilateral")
-        bad = np.flatnonzero(det.min(axis=1) <= fem_mesh.tol * np.abs(det).max(axis=1))
+        bad = np.flatnonzero(det.min(axis=1) <= TOLERANCE * np.abs(det).max(axis=1))
         if bad.size:
             raise ValueError(f"fem_mesh quadrilateral {int(bad[0])} is not strictly convex (the Jacobian "
                              f"determinant of its bilinear map is {det[bad[0]].min():.3g} at a corner)")

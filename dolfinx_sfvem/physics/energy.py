@@ -353,15 +353,16 @@ class ThirdMedium(Energy):
         return psi
 
     def unregularized_params(self) -> dict[str, float]:
-        """Its values with alpha_r = 0: Psi = gamma [K/2 (ln J)^2 + mu/2 (J^(-2/3) tr C - 3)], the
-        neo-Hookean part of Eq. 3."""
+        """Its values with alpha_r = 0 (and beta1 = 0): Psi = gamma [K/2 (ln J)^2 + mu/2 (J^(-2/3) tr C - 3)],
+        the neo-Hookean part of Eq. 3."""
         return {**self.params, "alpha_r": 0.0, **({"beta1": 0.0} if self.skew_penalty else {})}
 
     @property
     def name(self) -> str:
         n_dim = "" if self.n_dim is None else f", n_dim={self.n_dim}"
         quadrature = "" if self.quadrature == "gauss" else f", {self.quadrature}"
-        return f"ThirdMedium[{self.regularization}{n_dim}{quadrature}]"
+        skew = ", skew penalty" if self.skew_penalty else ""
+        return f"ThirdMedium[{self.regularization}{n_dim}{quadrature}{skew}]"
 
 
 class UserEnergy(Energy):
