@@ -661,3 +661,56 @@ def entity_geometry_nodes(mesh: dolfinx.mesh.Mesh, dim: int, entities: npt.NDArr
     if hasattr(dolfinx.mesh, "entities_to_geometry"):         # DOLFINx 0.11
         return np.asarray(dolfinx.mesh.entities_to_geometry(mesh, dim, entities, False))
     return np.asarray(dolfinx.cpp.mesh.entities_to_geometry(getattr(mesh, "_mesh", mesh), dim, entities, False))
+
+
+def plaza_refine(cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], cell: str,
+                 marked: npt.NDArray[np.int64]
+                 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """One step of DOLFINx's refinement (Plaza's algorithm) of a simplex mesh held whole by this
+    rank, on ``MPI.COMM_SELF``: the edges of the ``marked`` cells are split, and neighbours as the
+    algorithm needs to stay conforming.
+
+    Parameters
+    ----------
+    cells : (n_cells, 3 | 4) int64
+        The cells, DOLFINx's vertex order.
+    x : (n_points, gdim) float64
+    cell
+        ``"triangle"`` or ``"tetrahedron"``.
+    marked : (m,) int64
+        Indices into ``cells`` of the cells to split.
+
+    Returns
+    -------
+    points : (n_new_points, gdim) float64
+    cells : (n_new_cells, 3 | 4) int64
+        Into ``points``, DOLFINx's vertex order.
+    parent : (n_new_cells,) int64
+        The row of the input ``cells`` that contains each new cell: DOLFINx 0.11 returns it
+        (``RefinementOption.parent_cell``); on 0.5.2 it is the input cell holding the new cell's
+        centroid (the bounding-box tree of :func:`locate_cells`).
+    """
+    mesh = _create_mesh(MPI.COMM_SELF, np.asarray(cells, dtype=np.int64), np.asarray(x, dtype=np.float64), cell,
+                        dolfinx.mesh.GhostMode.none)
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim, 1)
+    local_of = np.empty(cells.shape[0], dtype=np.int64)
+    local_of[original_cell_index(mesh)] = np.arange(cells.shape[0])
+    c2e = np.asarray(mesh.topology.connectivity(tdim, 1).array).reshape(cells.shape[0], -1)
+    edges = np.unique(c2e[local_of[np.asarray(marked, dtype=np.int64)]]).astype(np.int32)
+    if hasattr(dolfinx.mesh, "RefinementOption"):                          # DOLFINx 0.11
+        fine, parent, _ = dolfinx.mesh.refine(mesh, edges, partitioner=None,
+                                              option=dolfinx.mesh.RefinementOption.parent_cell)
+        # the parents are listed in the order the refined cells were created, which the new
+        # mesh's original cell index gives (its cells are reordered)
+        parent = np.asarray(parent, dtype=np.int64)[original_cell_index(fine)]
+    else:
+        fine = dolfinx.mesh.refine(mesh, edges, redistribute=False)
+        parent = None
+    nodes = cell_geometry_nodes(fine).astype(np.int64)
+    points = np.asarray(fine.geometry.x[:, :x.shape[1]], dtype=np.float64)
+    if parent is None:
+        parent = locate_cells(mesh, points[nodes].mean(axis=1), cells.shape[0]).astype(np.int64)
+        if np.any(parent < 0):
+            raise RuntimeError("refine: a refined cell's centroid lies in no cell of the mesh refined")
+    return points, nodes, original_cell_index(mesh)[parent]

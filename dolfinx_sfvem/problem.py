@@ -45,7 +45,9 @@ from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
 from dolfinx_sfvem.output.run_summary import Observer, Result
 from dolfinx_sfvem.path_following.snes import DEFAULT_PREFIX
-from dolfinx_sfvem.discretizations.state_transfer import transfer_state
+from dolfinx_sfvem.discretizations.discretization import KeyedState
+from dolfinx_sfvem.discretizations.state_transfer import carry_state
+from dolfinx_sfvem.mesh.cell_refine import CellRefinement, refine_mesh
 from dolfinx_sfvem.path_following.stepping import Control, LoadStepping
 
 Marker = typing.Callable[[np.ndarray], np.ndarray]
@@ -601,52 +603,70 @@ class ContactProblem:
         return post.gather_to_root(self.comm, indices, values, self.disc.output_mesh.n_points)
 
     # ------------------------------------------------------------------ local refinement
+    @property
+    def adaptable(self) -> bool:
+        """Whether :meth:`refine` and ``solve(..., adapt=...)`` work here: the SFVEM on polygons, the
+        FEM on tetrahedra."""
+        if self.method == "vem":
+            return self.gdim == 2
+        return isinstance(self.mesh, CellMesh) and self.mesh.cell_type == "tetrahedron"
+
     def refine(self, where: Marker | npt.ArrayLike | None = None, levels: int = 1, *,
-               tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement:
+               tags: typing.Iterable[int | str] | None = None, max_l: int = 6) -> Refinement | CellRefinement:
         """Refine the mesh locally and carry the current state over, so that a following
-        ``solve(..., from_current_state=True)`` continues from it (collective; SFVEM only).
+        ``solve(..., from_current_state=True)`` continues from it (collective): the SFVEM on a 2D
+        polygon mesh (hanging nodes) and the FEM on tetrahedra (P2; DOLFINx's refinement of the
+        marked cells, conforming).
 
         The discretization is rebuilt on the refined mesh (same materials and options), the
         boundary conditions are kept (markers are evaluated again on the new nodes, tags select
-        the same regions) and the state is transferred exactly for quadratic fields
-        (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_state`, docs/refinement-local.md).
+        the same regions, named boundaries take the new facets on them) and the state is
+        transferred: exactly for quadratic fields on polygons
+        (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_state`, docs/refinement-local.md),
+        by interpolation of the P2 field on tetrahedra, exact for every P2 field
+        (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_lagrange_state`).
 
         Parameters
         ----------
         where, levels, tags, max_l
-            As :meth:`PolygonMesh.refine`.
+            As :meth:`PolygonMesh.refine` (``where`` marks polygon or cell centroids; ``max_l`` for
+            polygons only), :func:`~dolfinx_sfvem.mesh.cell_refine.refine_cells`.
 
         Returns
         -------
-        Refinement
-            The new mesh (also ``self.mesh``) and the parent polygon of each new polygon.
+        Refinement or CellRefinement
+            The new mesh (also ``self.mesh``) and the parent polygon (cell) of each new one.
+
+        Raises
+        ------
+        ValueError
+            For the FEM on a 2D mesh or on hexahedra, and for the SFVEM in 3D.
         """
-        if self.method != "vem":
-            raise ValueError("refine: only method='vem' can be refined with hanging nodes; for the FEM build a "
-                             "finer problem instead")
-        if self.gdim == 3:
-            raise ValueError("refine: a 3D problem is not refined in place; refine the octree "
+        if self.gdim == 3 and self.method == "vem":
+            raise ValueError("refine: the 3D SFVEM is not refined in place yet; refine the octree "
                              "(sf.meshes.octree_box(...).refine(where, levels)) and build the problem on it")
-        refinement = self.mesh.refine(where, levels, tags=tags, max_l=max_l)
+        if self.method == "fem" and not isinstance(self.mesh, CellMesh):
+            raise ValueError("refine: the 2D FEM (a triangulation of the polygon mesh) is not refined in place; "
+                             "refine the polygon mesh with method='vem', or build a finer problem")
+        refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
         self.move_to(refinement)
         return refinement
 
-    def move_to(self, refinement: Refinement) -> None:
+    def move_to(self, refinement: Refinement | CellRefinement) -> None:
         """Rebuild on ``refinement.mesh`` and carry the state over (collective)."""
-        self.rebuild(refinement.mesh, transfer_state(refinement, self.gathered_state()))
+        self.rebuild(refinement.mesh, carry_state(refinement, self.gathered_state()))
 
-    def gathered_state(self) -> np.ndarray:
-        """The state (n_nodes, d) by node key, on every rank (collective)."""
+    def gathered_state(self) -> KeyedState:
+        """The state by node key, on every rank (collective)."""
         keys, values = (np.concatenate(part) for part in zip(*self.comm.allgather(self.disc.get_state(self.x))))
-        state = np.full((int(keys.max()) + 1, self.gdim), np.nan)
-        state[keys] = values
-        return state
+        order = np.argsort(keys)
+        return KeyedState(keys[order], values[order])
 
-    def rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None:
-        """The problem on ``mesh`` at ``state`` (n_nodes, 2) by node key (collective)."""
+    def rebuild(self, mesh: PolygonMesh | CellMesh, state: KeyedState) -> None:
+        """The problem on ``mesh`` at ``state`` (collective)."""
         self.x.destroy()
         self._build(mesh)
-        self.disc.set_state(np.arange(state.shape[0]), state, self.x)
+        self.disc.set_state(state.keys, state.values, self.x)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
     # ------------------------------------------------------------------ solve
@@ -704,8 +724,8 @@ class ContactProblem:
             Load factor at which the path stops, in (0, 1]; ``converged`` means it was reached.
         adapt
             Refine the medium during the path where ``adapt.indicator`` says, after converged
-            steps (:class:`~dolfinx_sfvem.path_following.adaptivity.Adaptivity`, docs/refinement-local.md; SFVEM
-            only). Each refinement is followed by a re-balancing step at the same load.
+            steps (:class:`~dolfinx_sfvem.path_following.adaptivity.Adaptivity`, docs/refinement-local.md; the
+            SFVEM on polygons, the FEM on tetrahedra: as :meth:`refine`). Each refinement is followed by a re-balancing step at the same load.
         pressure_at
             Load factors at which ``out`` gets a plot of the contact pressure along the solids'
             boundaries (``contact_pressure_<load>.png``, at the first converged step reaching each);
@@ -727,9 +747,9 @@ class ContactProblem:
                              "from the current state")
         if not (0.0 < until <= 1.0):
             raise ValueError(f"until must be a load factor in (0, 1], got {until!r}")
-        if adapt is not None and (resume or self.method != "vem" or self.gdim == 3):
-            raise ValueError("adapt: adaptive refinement needs method='vem' on a 2D mesh and cannot resume a "
-                             "stopped run")
+        if adapt is not None and (resume or not self.adaptable):
+            raise ValueError("adapt: adaptive refinement needs method='vem' on a 2D mesh or method='fem' on "
+                             "tetrahedra, and cannot resume a stopped run")
         if from_current_state and until < self.load - 1e-12:
             raise ValueError(f"until = {until:g} lies below the load factor {self.load:g} already reached")
         if control is None:

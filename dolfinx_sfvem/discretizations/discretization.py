@@ -94,6 +94,21 @@ def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy],
                              f"{unavailable}; available: {list(quadratures)}")
 
 
+class KeyedState(typing.NamedTuple):
+    """A state by node key, on every rank: what a refinement carries to the refined mesh and
+    :meth:`Discretization.set_state` takes.
+
+    Attributes
+    ----------
+    keys : (k,) int64
+        Node keys (module docstring), sorted.
+    values : (k, d) float64
+        The displacement at each.
+    """
+    keys: np.ndarray
+    values: np.ndarray
+
+
 def values_by_key(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:
     """Rows of ``values`` (k, ...) whose ``keys`` (k,) are ``wanted`` (n,): a saved state on local nodes.
 
@@ -420,7 +435,7 @@ class Discretization(abc.ABC):
         """The :attr:`output_mesh` cell (n,) int64 of every point of :meth:`quadrature_fields`: what
         the refinement indicators read per cell (:mod:`~dolfinx_sfvem.path_following.adaptivity`)."""
         raise NotImplementedError(f"{type(self).__name__} does not name the cells of its quadrature points: "
-                                  "adaptive refinement needs method='vem' on a 2D mesh")
+                                  "adaptive refinement needs method='vem' on a 2D mesh or method='fem'")
 
     def error_norms(self, x: PETSc.Vec, u_exact: typing.Callable[[np.ndarray], np.ndarray],
                     grad_exact: typing.Callable[[np.ndarray], np.ndarray]) -> tuple[float, float]:

@@ -63,7 +63,7 @@ from dolfinx_sfvem.discretizations.discretization import (
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.discretizations.injectivity import folded_elements, gather_count
 from dolfinx_sfvem.output.logs import say
-from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
+from dolfinx_sfvem.discretizations.node_keys import lagrange_midpoint_keys, sfvem_unknowns
 from dolfinx_sfvem.mesh.cell_mesh import (
     CELL_TYPES, TOLERANCE, CellMesh, gather_cells, jacobian_determinants, reference_edges, reference_facets,
     reference_vertices)
@@ -585,6 +585,11 @@ class LagrangeDiscretization(Discretization):
         w = np.tile(weights, self._owned_cells.size) * values[:, -1]
         return values[:, :d], w, values[:, d:2 * d], values[:, 2 * d:-1].reshape(-1, d, d)
 
+    def quadrature_cells(self) -> np.ndarray:
+        """The :attr:`output_mesh` cell (n,) int64 of every point of :meth:`quadrature_fields`."""
+        n_points = _compat.reference_quadrature(self.mesh, ERROR_QUADRATURE_DEGREE)[0].shape[0]
+        return np.repeat(self._cell_input_index[self._owned_cells], n_points).astype(np.int64)
+
     # ------------------------------------------------------------------ locating unknowns
     def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
         """Local P2 nodes (owned and ghost) selected by marker and/or tags.
@@ -695,8 +700,7 @@ class LagrangeDiscretization(Discretization):
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Node keys (:meth:`get_state`) of the midpoints of the edges between the
         :attr:`output_mesh` points a and b (n,)."""
-        n = self._output_mesh.n_points
-        return n + edge_key(a, b, n)
+        return lagrange_midpoint_keys(self._output_mesh.n_points, a, b)
 
     def face_centre_keys(self, a: np.ndarray, c: np.ndarray) -> np.ndarray:
         """Node keys of the Q2 centres of the quadrilateral faces with the diagonal between the

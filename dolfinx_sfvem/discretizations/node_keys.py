@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 
 
@@ -28,6 +29,13 @@ def midpoint_keys(mesh: PolygonMesh, a: npt.ArrayLike, b: npt.ArrayLike) -> npt.
 def mean_keys(mesh: PolygonMesh, polygons: npt.ArrayLike) -> npt.NDArray[np.int64]:
     """Keys (n,) of the mean nodes of ``polygons`` (n,)."""
     return mesh.n_points + mesh.n_edges + np.asarray(polygons, dtype=np.int64)
+
+
+def lagrange_midpoint_keys(n_points: int, a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Keys (n,) of the Lagrange FEM's edge nodes between points ``a`` and ``b`` (n,) of its mesh of
+    ``n_points`` points: ``n_points + edge_key(a, b)`` (its vertex nodes' keys are their points;
+    :meth:`~dolfinx_sfvem.discretizations.fem.LagrangeDiscretization.midpoint_keys`)."""
+    return n_points + edge_key(np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64), n_points)
 
 
 def n_keys(mesh: PolygonMesh) -> int:

@@ -7,6 +7,11 @@ node on an old edge takes the value of that edge's quadratic trace, a node insid
 the value of its projection Π^∇_2 u, and the mean of a new polygon cut from an old one the mean
 of Π^∇_2 u over it. States are indexed by node key (:mod:`~dolfinx_sfvem.discretizations.node_keys`); the
 refinement (:mod:`~dolfinx_sfvem.mesh.refine`) keeps the index of every old point.
+
+The Lagrange FEM's state on a refined simplex mesh (:mod:`~dolfinx_sfvem.mesh.cell_refine`) is the
+interpolation of the old P2 field: each node of a new cell takes the value of its parent cell's P2
+polynomial there (:func:`transfer_lagrange_state`), exact for every field of the old P2 space, as the
+new cells lie inside the old ones. :func:`carry_state` takes either refinement.
 """
 from __future__ import annotations
 
@@ -14,8 +19,11 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
+from dolfinx_sfvem.discretizations.discretization import KeyedState, values_by_key
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
-from dolfinx_sfvem.discretizations.node_keys import mean_keys, midpoint_keys, n_keys
+from dolfinx_sfvem.discretizations.node_keys import lagrange_midpoint_keys, mean_keys, midpoint_keys, n_keys
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh, reference_edges
+from dolfinx_sfvem.mesh.cell_refine import CellRefinement, barycentric
 from dolfinx_sfvem.mesh.polygon import point_segment_distance
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.mesh.csr import concatenated_ranges
@@ -145,3 +153,55 @@ def transfer_state(refinement: Refinement, values: npt.NDArray[np.float64]) -> n
     u_q = old.projected(x_q, np.repeat(parent[children], counts)) * w_q[:, None]
     out[mean_key[children]] = np.add.reduceat(u_q, q_offsets[:-1], axis=0) / fine.areas[children, None]
     return out
+
+
+def _lagrange_nodes(mesh: CellMesh, cells: npt.NDArray[np.int64]
+                    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """The P2 nodes of simplex ``cells`` (n,) of ``mesh``, vertices then edge midpoints in DOLFINx's
+    order: (keys (n, k), coordinates (n, k, d))."""
+    edges = np.asarray(reference_edges(mesh.cell_type))
+    corners = mesh.cells[cells]
+    keys = np.hstack([corners, lagrange_midpoint_keys(mesh.n_points, corners[:, edges[:, 0]], corners[:, edges[:, 1]])])
+    x = mesh.points[corners]
+    return keys, np.concatenate([x, 0.5 * (x[:, edges[:, 0]] + x[:, edges[:, 1]])], axis=1)
+
+
+def transfer_lagrange_state(refinement: CellRefinement, state: KeyedState) -> KeyedState:
+    """P2 node values on ``refinement.mesh`` interpolated from those on ``refinement.coarse``.
+
+    Parameters
+    ----------
+    refinement
+        From :func:`~dolfinx_sfvem.mesh.cell_refine.refine_cells`.
+    state
+        The displacement at every P2 node of the coarse mesh, by key
+        (:func:`~dolfinx_sfvem.discretizations.node_keys.lagrange_midpoint_keys`).
+
+    Returns
+    -------
+    KeyedState
+        The displacement at every P2 node of the refined mesh: the coarse P2 field of the parent
+        cell evaluated there (the module docstring).
+    """
+    coarse, fine, parent = refinement.coarse, refinement.mesh, refinement.parent
+    old_keys, _ = _lagrange_nodes(coarse, parent)
+    new_keys, x = _lagrange_nodes(fine, np.arange(fine.n_cells))
+    lam = barycentric(coarse.points[coarse.cells[parent]], x)                    # (n, k, d + 1)
+    edges = np.asarray(reference_edges(coarse.cell_type))
+    basis = np.concatenate([lam * (2.0 * lam - 1.0), 4.0 * lam[:, :, edges[:, 0]] * lam[:, :, edges[:, 1]]],
+                           axis=2)                                               # (n, k new nodes, k old nodes)
+    d = state.values.shape[1]
+    old = values_by_key(state.keys, state.values, old_keys.ravel()).reshape(*old_keys.shape, d)
+    keys, first = np.unique(new_keys.ravel(), return_index=True)
+    return KeyedState(keys, np.einsum("npk,nkd->npd", basis, old).reshape(-1, d)[first])
+
+
+def carry_state(refinement: Refinement | CellRefinement, state: KeyedState) -> KeyedState:
+    """The state on ``refinement.mesh`` from ``state`` on ``refinement.coarse``: :func:`transfer_state`
+    (SFVEM on polygons) or :func:`transfer_lagrange_state` (P2 on simplices)."""
+    if isinstance(refinement, CellRefinement):
+        return transfer_lagrange_state(refinement, state)
+    dense = np.full((int(state.keys.max()) + 1, state.values.shape[1]), np.nan)
+    dense[state.keys] = state.values
+    values = transfer_state(refinement, dense)
+    return KeyedState(np.arange(values.shape[0]), values)

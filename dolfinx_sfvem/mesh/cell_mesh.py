@@ -287,6 +287,11 @@ class CellMesh:
         return int(self.cells.shape[0])
 
     @property
+    def centroids(self) -> np.ndarray:
+        """The mean of every cell's vertices (n_cells, gdim): the centroid of a simplex."""
+        return self.points[self.cells].mean(axis=1)
+
+    @property
     def volumes(self) -> np.ndarray:
         """Volume (area in 2D) of every cell (n_cells,), exact: the Jacobian determinant integrated
         over the reference cell (constant on a simplex; 2-point Gauss per direction otherwise)."""

@@ -55,15 +55,23 @@ class Polygons(typing.Protocol):
     sides: Sides
 
 
+class Tagged(typing.Protocol):
+    """What the selection reads of a mesh: a polygon mesh or a 3D cell mesh."""
+    tags: npt.NDArray[np.int32]                     # (n_cells,) region tags
+    region_names: dict[str, int]
+    centroids: npt.NDArray[np.float64]              # (n_cells, d)
+
+
 # --------------------------------------------------------------------------- selection
-def select_polygons(mesh: Polygons, where: Selection = None,
-                    tags: typing.Iterable[int | str] | None = None) -> npt.NDArray[np.bool_]:
-    """Mask (n_polygons,) of the polygons chosen by ``where`` and ``tags`` (both: the intersection).
+def select_polygons(mesh: Tagged, where: Selection = None, tags: typing.Iterable[int | str] | None = None,
+                    what: str = "polygon") -> npt.NDArray[np.bool_]:
+    """Mask (n_polygons,) of the polygons chosen by ``where`` and ``tags`` (both: the intersection);
+    the cells of a 3D mesh likewise (``what = "cell"``, the word of the messages).
 
     Parameters
     ----------
     where
-        A marker ``f(x) -> bool (n,)`` of the centroids ``x`` (2, n) (as the markers of
+        A marker ``f(x) -> bool (n,)`` of the centroids ``x`` (d, n) (as the markers of
         :meth:`~dolfinx_sfvem.problem.ContactProblem.fix`), a boolean mask (n_polygons,), or
         polygon indices.
     tags
@@ -76,41 +84,41 @@ def select_polygons(mesh: Polygons, where: Selection = None,
         unknown tag or name, an empty selection.
     """
     if where is None and tags is None:
-        raise ValueError("refine: give a centroid marker, a polygon mask or polygon indices, and/or region tags")
-    n = mesh.n_polygons
+        raise ValueError(f"refine: give a centroid marker, a {what} mask or {what} indices, and/or region tags")
+    n = mesh.tags.shape[0]
     chosen = np.ones(n, dtype=bool)
     if callable(where):
         marked = np.asarray(where(mesh.centroids.T.copy()))
         if marked.shape != (n,) or marked.dtype.kind not in "bui":
-            raise ValueError(f"refine: the marker must return a bool array of shape ({n},) (one entry per polygon "
+            raise ValueError(f"refine: the marker must return a bool array of shape ({n},) (one entry per {what} "
                              f"centroid), got shape {marked.shape} and dtype {marked.dtype}")
         chosen &= marked.astype(bool)
     elif where is not None:
         given = np.asarray(where)
         if given.dtype == bool:
             if given.shape != (n,):
-                raise ValueError(f"refine: a polygon mask must have shape ({n},), got {given.shape}")
+                raise ValueError(f"refine: a {what} mask must have shape ({n},), got {given.shape}")
             chosen &= given
         elif given.dtype.kind in "iu" and given.ndim <= 1:
             given = given.reshape(-1)
             bad = given[(given < 0) | (given >= n)]
             if bad.size:
-                raise ValueError(f"refine: polygon index {bad[0]} out of range [0, {n})")
+                raise ValueError(f"refine: {what} index {bad[0]} out of range [0, {n})")
             mask = np.zeros(n, dtype=bool)
             mask[given] = True
             chosen &= mask
         else:
-            raise ValueError("refine: 'where' must be a centroid marker, a boolean mask or polygon indices, "
+            raise ValueError(f"refine: 'where' must be a centroid marker, a boolean mask or {what} indices, "
                              f"got an array of dtype {given.dtype} and shape {given.shape}")
     if tags is not None:
-        chosen &= np.isin(mesh.tags, _region_tags(mesh, tags))
+        chosen &= np.isin(mesh.tags, _region_tags(mesh, tags, what))
     if not chosen.any():
-        raise ValueError("refine: the selection is empty (no polygon chosen)")
+        raise ValueError(f"refine: the selection is empty (no {what} chosen)")
     return chosen
 
 
-def _region_tags(mesh: Polygons, tags: typing.Iterable[int | str]) -> npt.NDArray[np.int64]:
-    """Tags from tags or region names; ValueError for one that no polygon carries."""
+def _region_tags(mesh: Tagged, tags: typing.Iterable[int | str], what: str) -> npt.NDArray[np.int64]:
+    """Tags from tags or region names; ValueError for one that no polygon (cell) carries."""
     if isinstance(tags, (int, str, np.integer)):
         tags = [tags]
     out = []
@@ -121,7 +129,7 @@ def _region_tags(mesh: Polygons, tags: typing.Iterable[int | str]) -> npt.NDArra
                                  f"(its names: {sorted(mesh.region_names) or 'none'})")
             t = mesh.region_names[t]
         if not np.any(mesh.tags == t):
-            raise ValueError(f"refine: no polygon has region tag {t} (tags: {np.unique(mesh.tags).tolist()})")
+            raise ValueError(f"refine: no {what} has region tag {t} (tags: {np.unique(mesh.tags).tolist()})")
         out.append(int(t))
     return np.asarray(out, dtype=np.int64)
 

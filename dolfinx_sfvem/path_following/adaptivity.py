@@ -1,13 +1,16 @@
 """Adaptive refinement of the third medium during a load path: indicators and limits.
 
 After a converged load step, :meth:`ContactProblem.solve(..., adapt=Adaptivity(...))
-<dolfinx_sfvem.ContactProblem.solve>` asks the indicator which polygons to split, splits them
-once (:meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`; neighbours gain hanging nodes), carries the
-state over (:func:`~dolfinx_sfvem.discretizations.state_transfer.transfer_state`), re-balances it at the same load and
-goes on. Only third-medium polygons are split by choice (the closure of the refinement may split
-a neighbour whose hanging nodes would need a too high projection order). An indicator is any
-callable ``indicator(problem) -> (n_polygons,) bool`` over ``problem.mesh``, the same on every
-rank, reading what :class:`ProblemState` lists (a :class:`~dolfinx_sfvem.ContactProblem` has it).
+<dolfinx_sfvem.ContactProblem.solve>` asks the indicator which cells to split, splits them once
+(:func:`~dolfinx_sfvem.mesh.cell_refine.refine_mesh`: polygons with hanging nodes on their
+neighbours, tetrahedra by DOLFINx's conforming refinement), carries the state over
+(:func:`~dolfinx_sfvem.discretizations.state_transfer.carry_state`), re-balances it at the same
+load and goes on. The cells are the polygons of a 2D SFVEM problem and the tetrahedra of a 3D
+FEM one: the same code for both. Only third-medium cells are split by choice (the closure of the
+refinement may split a neighbour: one whose hanging nodes would need a too high projection
+order, a tetrahedron the conforming refinement bisects). An indicator is any callable
+``indicator(problem) -> (n_cells,) bool`` over ``problem.mesh``, the same on every rank, reading
+what :class:`ProblemState` lists (a :class:`~dolfinx_sfvem.ContactProblem` has it).
 docs/refinement-local.md has the measurements.
 """
 from __future__ import annotations
@@ -25,12 +28,14 @@ from dolfinx_sfvem.physics.contact import ContactPressure, Gap
 from dolfinx_sfvem.discretizations.discretization import Discretization
 from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.discretizations.node_keys import sfvem_unknowns
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_refine import CellRefinement, refine_mesh
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 
 
 class ProblemState(typing.Protocol):
     """What the indicators read of a problem at its current state."""
-    mesh: PolygonMesh
+    mesh: PolygonMesh | CellMesh
     materials: typing.Mapping[int, Energy]
     disc: Discretization
     x: PETSc.Vec
@@ -44,12 +49,24 @@ class ProblemState(typing.Protocol):
 Indicator = typing.Callable[[ProblemState], npt.NDArray[np.bool_]]
 
 
+def n_cells(mesh: PolygonMesh | CellMesh) -> int:
+    """The polygons of a polygon mesh, the cells of a cell mesh."""
+    return int(mesh.tags.shape[0])
+
+
+def unknowns(mesh: PolygonMesh | CellMesh) -> int:
+    """The unknowns of the problem on ``mesh``: the SFVEM's on polygons, P2's on simplices."""
+    if isinstance(mesh, CellMesh):
+        return mesh.gdim * (mesh.n_points + mesh.edges().shape[0])
+    return sfvem_unknowns(mesh)
+
+
 def smallest_J(problem: ProblemState) -> npt.NDArray[np.float64]:
-    """min over the quadrature points of J = det(I + Π⁰_l∇u) per polygon (n_polygons,), on every
-    rank (collective; SFVEM only)."""
+    """min over the quadrature points of J = det(I + ∇u) per cell (n_cells,), on every rank
+    (collective): the SFVEM's Π⁰_l∇u over each polygon, the FEM's ∇u_h over each tetrahedron."""
     _, _, _, grad = problem.disc.quadrature_fields(problem.x)
-    J = (1.0 + grad[:, 0, 0]) * (1.0 + grad[:, 1, 1]) - grad[:, 0, 1] * grad[:, 1, 0]
-    local = np.full(problem.mesh.n_polygons, np.inf)
+    J = np.linalg.det(np.eye(grad.shape[1]) + grad) if grad.size else np.zeros(0)
+    local = np.full(n_cells(problem.mesh), np.inf)
     np.minimum.at(local, problem.disc.quadrature_cells(), J)
     out = np.empty_like(local)
     problem.comm.Allreduce(local, out, op=MPI.MIN)
@@ -57,14 +74,14 @@ def smallest_J(problem: ProblemState) -> npt.NDArray[np.float64]:
 
 
 def medium_polygons(problem: ProblemState) -> npt.NDArray[np.bool_]:
-    """Mask (n_polygons,) of the third-medium polygons of ``problem.mesh``."""
+    """Mask (n_cells,) of the third-medium polygons (cells) of ``problem.mesh``."""
     medium = [tag for tag, energy in problem.materials.items() if energy.is_medium]
     return np.isin(problem.mesh.tags, medium)
 
 
 @dataclass(frozen=True)
 class Compression:
-    """The medium polygons compressed below ``J_below``: smallest J = det F over their
+    """The medium polygons (cells) compressed below ``J_below``: smallest J = det F over their
     quadrature points < ``J_below`` (dimensionless, in (0, 1)). The medium between two solids
     closing in on each other is what gets compressed, so this follows the contact."""
     J_below: float = 0.8
@@ -79,7 +96,7 @@ class Compression:
 
 @dataclass(frozen=True)
 class NearContact:
-    """The medium polygons whose reference centroid lies within ``distance`` (length unit of the
+    """The medium polygons (cells) whose reference centroid lies within ``distance`` (length unit of the
     mesh) of a node of the solids' contact zones (:class:`~dolfinx_sfvem.physics.contact.ContactPressure`:
     boundary nodes whose normal pressure exceeds the threshold fraction of their pair's largest),
     and, with ``gap_below``, only while the smallest gap is below it."""
@@ -111,20 +128,20 @@ class Adaptivity:
     Parameters
     ----------
     indicator
-        ``indicator(problem)`` -> (n_polygons,) bool over ``problem.mesh``, the polygons that
-        should be split at the current state (default :class:`Compression`). Only medium polygons
-        of the mask are split.
+        ``indicator(problem)`` -> (n_cells,) bool over ``problem.mesh``, the polygons (tetrahedra)
+        that should be split at the current state (default :class:`Compression`). Only medium
+        cells of the mask are split.
     max_levels
-        A polygon is split at most this many times (counted from the mesh the solve started on).
+        A cell is split at most this many times (counted from the mesh the solve started on).
     max_unknowns
-        No refinement that would give more SFVEM unknowns than this (None: no limit).
+        No refinement that would give more unknowns than this (None: no limit).
     max_l
-        Closure of the refinement (:meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`).
+        Closure of the refinement of polygons (:meth:`~dolfinx_sfvem.mesh.polygon_mesh.PolygonMesh.refine`).
 
     Attributes
     ----------
-    level : (n_polygons,) int or None
-        Times each polygon of the current mesh was split (None before the first use).
+    level : (n_cells,) int or None
+        Times each cell of the current mesh was split (None before the first use).
     """
     indicator: Indicator = field(default_factory=Compression)
     max_levels: int = 2
@@ -141,24 +158,25 @@ class Adaptivity:
         if not callable(self.indicator):
             raise ValueError(f"Adaptivity: the indicator must be a function of the problem, got {self.indicator!r}")
 
-    def refinement(self, problem: ProblemState) -> Refinement | None:
+    def refinement(self, problem: ProblemState) -> Refinement | CellRefinement | None:
         """The refinement of ``problem.mesh`` the indicator asks for at the current state within the
         limits, or None (collective: the same on every rank)."""
         mesh = problem.mesh
-        if self.level is None or self.level.size != mesh.n_polygons:
-            self.level = np.zeros(mesh.n_polygons, dtype=np.int64)
+        n = n_cells(mesh)
+        if self.level is None or self.level.size != n:
+            self.level = np.zeros(n, dtype=np.int64)
         wanted = np.asarray(self.indicator(problem), dtype=bool)
-        if wanted.shape != (mesh.n_polygons,):
+        if wanted.shape != (n,):
             raise ValueError(f"Adaptivity: the indicator returned shape {wanted.shape}, expected "
-                             f"({mesh.n_polygons},), one flag per polygon of problem.mesh")
+                             f"({n},), one flag per polygon (cell) of problem.mesh")
         chosen = wanted & medium_polygons(problem) & (self.level < self.max_levels)
         if not chosen.any():
             return None
-        refinement = mesh.refine(chosen, 1, max_l=self.max_l)
-        if self.max_unknowns is not None and sfvem_unknowns(refinement.mesh) > self.max_unknowns:
+        refinement = refine_mesh(mesh, chosen, 1, max_l=self.max_l)
+        if self.max_unknowns is not None and unknowns(refinement.mesh) > self.max_unknowns:
             return None
         return refinement
 
-    def refined(self, refinement: Refinement) -> None:
-        """Carry the levels over to the refined mesh: a child of a split polygon is one level deeper."""
+    def refined(self, refinement: Refinement | CellRefinement) -> None:
+        """Carry the levels over to the refined mesh: a child of a selected cell is one level deeper."""
         self.level = self.level[refinement.parent] + refinement.selected[refinement.parent]

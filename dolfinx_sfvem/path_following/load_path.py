@@ -37,6 +37,9 @@ import numpy as np
 from petsc4py import PETSc
 
 from dolfinx_sfvem.output import run_phase
+from dolfinx_sfvem.discretizations.discretization import KeyedState
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_refine import CellRefinement
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, Refinement
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity, ProblemState
 from dolfinx_sfvem.physics.contact import BoundaryNodes, ContactPressure, Gap
@@ -90,11 +93,11 @@ class Problem(ProblemState, typing.Protocol):
 
     def point_displacements(self) -> np.ndarray | None: ...
 
-    def gathered_state(self) -> np.ndarray: ...
+    def gathered_state(self) -> KeyedState: ...
 
-    def move_to(self, refinement: Refinement) -> None: ...
+    def move_to(self, refinement: Refinement | CellRefinement) -> None: ...
 
-    def rebuild(self, mesh: PolygonMesh, state: np.ndarray) -> None: ...
+    def rebuild(self, mesh: PolygonMesh | CellMesh, state: KeyedState) -> None: ...
 
     def describe(self) -> dict: ...
 
@@ -147,7 +150,7 @@ class MeshStart:
     """
     new_mesh: bool = False
     rebalance: bool = False
-    before: tuple[PolygonMesh, np.ndarray] | None = None
+    before: tuple[PolygonMesh | CellMesh, KeyedState] | None = None
     adapt: Adaptivity | None = None
 
 
@@ -166,7 +169,7 @@ class MeshOutcome:
         ``FAILED`` and ``INTERRUPTED``: the exception that ended the path.
     """
     ending: Ending
-    before: tuple[PolygonMesh, np.ndarray] | None = None
+    before: tuple[PolygonMesh | CellMesh, KeyedState] | None = None
     error: SolveFailed | KeyboardInterrupt | None = None
 
 
@@ -406,8 +409,8 @@ class LoadPath:
         result.iterations += iterations
         return result
 
-    def _undo_adaptation(self, mesh, state: np.ndarray) -> None:
-        """Back to ``mesh`` and ``state`` (n_nodes, 2) from before the adaptive refinement whose
+    def _undo_adaptation(self, mesh, state: KeyedState) -> None:
+        """Back to ``mesh`` and ``state`` from before the adaptive refinement whose
         re-balancing failed, adaptivity off for the rest of the path: the last converged step is
         kept as it was, nothing is lost (collective)."""
         p = self.problem
@@ -420,7 +423,7 @@ class LoadPath:
 
     def _adapt(self, adapt: Adaptivity) -> tuple[int, tuple | None]:
         """Refine where ``adapt`` says at the current (converged) state: the number of polygons
-        split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
+        (cells) split (0: nothing to refine, or a limit reached) and the mesh and state before (collective)."""
         p = self.problem
         refinement = adapt.refinement(p)
         if refinement is None:
