@@ -646,8 +646,8 @@ class ContactProblem:
             raise ValueError("refine: the 3D SFVEM is not refined in place yet; refine the octree "
                              "(sf.meshes.octree_box(...).refine(where, levels)) and build the problem on it")
         if self.method == "fem" and not isinstance(self.mesh, CellMesh):
-            raise ValueError("refine: the 2D FEM (a triangulation of the polygon mesh) is not refined in place; "
-                             "refine the polygon mesh with method='vem', or build a finer problem")
+            raise ValueError("refine: on a 2D mesh only method='vem' can be refined (with hanging nodes); the 2D "
+                             "FEM's triangulation of the polygon mesh is not refined in place: build a finer problem")
         refinement = refine_mesh(self.mesh, where, levels, tags=tags, max_l=max_l)
         self.move_to(refinement)
         return refinement

@@ -16,8 +16,6 @@ which a conforming Lagrange space does not have.
 from __future__ import annotations
 
 import typing
-from dataclasses import dataclass
-
 import numpy as np
 import numpy.typing as npt
 
@@ -52,29 +50,12 @@ def barycentric(vertices: npt.NDArray[np.float64], x: npt.NDArray[np.float64]) -
     return np.concatenate([1.0 - xi.sum(axis=2, keepdims=True), xi], axis=2)
 
 
-@dataclass
-class CellRefinement:
+class CellRefinement(Refinement):
     """A refined simplex mesh and how it derives from the mesh it was cut from (made by
-    :func:`refine_cells`; the counterpart of :class:`~dolfinx_sfvem.mesh.polygon_mesh.Refinement`).
-
-    Attributes
-    ----------
-    coarse : CellMesh
-        The mesh that was refined.
-    mesh : CellMesh
-        The refined mesh; its first ``coarse.n_points`` points are those of ``coarse``.
-    parent : (mesh.n_cells,) int64
-        The cell of ``coarse`` containing each cell of ``mesh``.
-    selected : (coarse.n_cells,) bool
-        The cells of ``coarse`` that were selected (the closure splits some neighbours too).
-    levels : int
-        Times the selected cells (and then their children) were split.
-    """
-    coarse: CellMesh
-    mesh: CellMesh
-    parent: npt.NDArray[np.int64]
-    selected: npt.NDArray[np.bool_]
-    levels: int
+    :func:`refine_cells`): the attributes of :class:`~dolfinx_sfvem.mesh.polygon_mesh.Refinement`
+    with cells for polygons (``coarse`` and ``mesh`` are :class:`CellMesh` es, the first
+    ``coarse.n_points`` points of ``mesh`` those of ``coarse``; ``selected`` the cells marked, the
+    closure splits some neighbours too)."""
 
     def describe(self) -> str:
         """One line: cells and points before and after."""
