@@ -161,6 +161,11 @@ def geometry_degree(cell: str, n_nodes: int) -> int:
     return counts[n_nodes]
 
 
+def mesh_geometry_degree(mesh: dolfinx.mesh.Mesh) -> int:
+    """The degree (1 or 2) of a DOLFINx mesh's geometry (its coordinate element)."""
+    return geometry_degree(mesh.topology.cell_type.name, cell_geometry_nodes(mesh).shape[1])
+
+
 def gmsh_node_permutation(cell: str, n_nodes: int) -> npt.NDArray[np.int64]:
     """``p`` with ``nodes_dolfinx = nodes_gmsh[:, p]`` for gmsh's ``cell`` s of ``n_nodes`` nodes
     (DOLFINx's ``perm_gmsh``)."""
