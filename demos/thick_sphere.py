@@ -153,6 +153,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--study", action="store_true", help="run the refinement study instead (module docstring)")
     p.add_argument("--study-h", type=common.positive_float, nargs="+", default=STUDY_H, metavar="H",
                    help="mesh sizes of --study (default %(default)s)")
+    p.add_argument("--order", type=int, choices=(1, 2), default=1,
+                   help="geometry degree of the tetrahedra: 1 straight-sided, 2 gmsh's curved second order "
+                        "(default %(default)s)")
     p.set_defaults(method="fem")
     return p
 
@@ -188,7 +191,7 @@ def on_inner_sphere(x: np.ndarray) -> np.ndarray:
 
 def build(load: str, p: float, h: float, args: argparse.Namespace) -> sf.ContactProblem:
     """The 1/8 shell of mesh size h under ``load`` at pressure p (P2 tetrahedra)."""
-    bench = sf.meshes.thick_sphere(A_IN, B_OUT, h, filled=load == "cavity")
+    bench = sf.meshes.thick_sphere(A_IN, B_OUT, h, filled=load == "cavity", order=args.order)
     materials = {"solid": sf.Hyperelastic(K=K, mu=MU)}
     if load == "cavity":
         materials["cavity"] = common.third_medium(args, mu=MU_MEDIUM, K=K_MEDIUM)
@@ -200,7 +203,7 @@ def build(load: str, p: float, h: float, args: argparse.Namespace) -> sf.Contact
     else:
         problem.pressure(on_inner_sphere, p, follower=load == "follower", name="p")
     problem.parameters["geometry"] = {"a": A_IN, "b": B_OUT, "K": K, "mu": MU, "mu_medium": MU_MEDIUM,
-                                      "K_medium": K_MEDIUM, "h": h}
+                                      "K_medium": K_MEDIUM, "h": h, "order": args.order}
     return problem
 
 

@@ -6,9 +6,10 @@ its code path by what the installed API offers (an attribute, a parameter name, 
 kernel's argument count), never by comparing version strings. The rest of the package calls:
 
 - mesh creation with a user-given cell distribution (:func:`create_triangle_mesh`) or DOLFINx's
-  own partitioner (:func:`create_mesh_partitioned`), the ufl domain of a mesh of degree-1
-  geometry (:func:`coordinate_domain`), and the maps of local cells / geometry nodes / dofs back to their
-  input indices,
+  own partitioner (:func:`create_mesh_partitioned`, geometry of degree 1 or 2), the ufl domain of a
+  mesh (:func:`coordinate_domain`), basix's Lagrange element of a geometry (:func:`lagrange_element`,
+  :func:`geometry_degree`), gmsh's node order (:func:`gmsh_node_permutation`), and the maps of local
+  cells / geometry nodes / dofs back to their input indices,
 - vector spaces, index maps and ghosted PETSc vectors (:func:`vector_function_space`,
   :func:`create_index_map`, :func:`create_petsc_vector`), ``atan2`` in UFL,
 - JIT compilation of a UFL expression into a C function and the call of that function from
@@ -128,13 +129,47 @@ def _destinations_csr(owner: np.ndarray, ghost_cell: np.ndarray, ghost_rank: np.
 _CREATE_MESH_TAKES_GHOST_MODE = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
 
 
-def coordinate_domain(cell: str, gdim: int = 2) -> ufl.Mesh:
+def coordinate_domain(cell: str, gdim: int = 2, degree: int = 1) -> ufl.Mesh:
     """The ufl domain of a mesh of ``cell`` s (``"triangle"``, ``"quadrilateral"``,
-    ``"tetrahedron"``, ``"hexahedron"``) in ``gdim`` dimensions with degree-1 geometry (affine
-    simplices, bilinear quadrilaterals, trilinear hexahedra)."""
+    ``"tetrahedron"``, ``"hexahedron"``) in ``gdim`` dimensions with geometry of ``degree``: 1 for
+    affine simplices, bilinear quadrilaterals and trilinear hexahedra, 2 for curved (quadratic) cells."""
     if _basix_ufl is None:             # UFL's own elements (DOLFINx 0.5)
-        return ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1, dim=gdim))
-    return ufl.Mesh(_basix_ufl.element("Lagrange", cell, 1, shape=(gdim,)))
+        return ufl.Mesh(ufl.VectorElement("Lagrange", cell, degree, dim=gdim))
+    return ufl.Mesh(_basix_ufl.element("Lagrange", cell, degree, shape=(gdim,)))
+
+
+def lagrange_element(cell: str, degree: int):
+    """Basix's scalar Lagrange element of ``degree`` on ``cell``, variant equispaced: the coordinate
+    element of a geometry of that degree (its ``points`` (n_nodes, tdim) are the reference
+    positions of the geometry nodes in DOLFINx's order; ``tabulate(n, xi)`` its derivatives)."""
+    return basix.create_element(basix.ElementFamily.P, getattr(basix.CellType, cell), degree,
+                                basix.LagrangeVariant.equispaced)
+
+
+#: the geometry degrees a mesh may have
+GEOMETRY_DEGREES = (1, 2)
+
+
+def geometry_degree(cell: str, n_nodes: int) -> int:
+    """The degree (1 or 2) of a geometry of ``cell`` s with ``n_nodes`` nodes each (tetrahedron 4 or
+    10, hexahedron 8 or 27, triangle 3 or 6, quadrilateral 4 or 9); ValueError for another count
+    (e.g. gmsh's 20-node serendipity hexahedra)."""
+    counts = {lagrange_element(cell, degree).dim: degree for degree in GEOMETRY_DEGREES}
+    if n_nodes not in counts:
+        raise ValueError(f"{cell} mesh: cells must have {' or '.join(map(str, counts))} nodes each (geometry of "
+                         f"degree {' or '.join(map(str, counts.values()))}), got {n_nodes}")
+    return counts[n_nodes]
+
+
+def mesh_geometry_degree(mesh: dolfinx.mesh.Mesh) -> int:
+    """The degree (1 or 2) of a DOLFINx mesh's geometry (its coordinate element)."""
+    return geometry_degree(mesh.topology.cell_type.name, cell_geometry_nodes(mesh).shape[1])
+
+
+def gmsh_node_permutation(cell: str, n_nodes: int) -> npt.NDArray[np.int64]:
+    """``p`` with ``nodes_dolfinx = nodes_gmsh[:, p]`` for gmsh's ``cell`` s of ``n_nodes`` nodes
+    (DOLFINx's ``perm_gmsh``)."""
+    return np.asarray(dolfinx.cpp.io.perm_gmsh(getattr(dolfinx.cpp.mesh.CellType, cell), n_nodes), dtype=np.int64)
 
 
 def _equispaced(element: ufl.VectorElement) -> ufl.VectorElement:
@@ -157,7 +192,8 @@ def settle_coordinate_element(mesh: dolfinx.mesh.Mesh) -> None:
     "equispaced", in place (``ffcx/analysis.py``, ``ffcx/ir/representation.py``). The element's
     repr is part of every signature, so without this call a form's module name would depend on
     whether an earlier form of the process missed the cache. For a degree-1 element every variant
-    has the same basis: the geometry does not change. Basix's elements (DOLFINx 0.11) carry
+    has the same basis, and for degree 2 the same nodes (vertices and midpoints): the geometry does not
+    change. Basix's elements (DOLFINx 0.11) carry
     their variant and FFCx leaves them alone: nothing to do there.
     """
     domain = mesh.ufl_domain()
@@ -170,13 +206,14 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
                  ghost_mode: dolfinx.mesh.GhostMode,
                  destinations: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None
                  ) -> dolfinx.mesh.Mesh:
-    """Distributed mesh of ``cell`` s of degree-1 geometry, its coordinate element settled
-    (:func:`settle_coordinate_element`).
+    """Distributed mesh of ``cell`` s, its coordinate element settled (:func:`settle_coordinate_element`).
 
     Parameters
     ----------
     cells, x
-        Input cells (indices into ``x``, DOLFINx's vertex order) and node coordinates of this rank.
+        Input cells (indices into ``x``, DOLFINx's node order) and node coordinates of this rank; the
+        number of nodes per cell gives the geometry's degree (:func:`geometry_degree`; a rank
+        without cells still passes the right number of columns).
     ghost_mode
         Ghost cells of DOLFINx's graph partitioner (ignored with ``destinations``).
     destinations
@@ -185,7 +222,7 @@ def _create_mesh(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np
     """
     cells = np.ascontiguousarray(cells, dtype=np.int64)
     x = np.ascontiguousarray(x, dtype=np.float64)
-    domain = coordinate_domain(cell, x.shape[1])
+    domain = coordinate_domain(cell, x.shape[1], geometry_degree(cell, cells.shape[1]))
     if destinations is not None:
         adjacency = dolfinx.cpp.graph.AdjacencyList_int32(*destinations)
 
@@ -283,8 +320,9 @@ def _rows(table) -> npt.NDArray[np.int32]:
 
 
 def cell_geometry_nodes(mesh: dolfinx.mesh.Mesh) -> npt.NDArray[np.int32]:
-    """Geometry node indices of each local cell, shape (n_local_cells, 3 or 4), in DOLFINx's
-    vertex order (:data:`COUNTER_CLOCKWISE` turns it counter-clockwise)."""
+    """Geometry node indices of each local cell, shape (n_local_cells, n_nodes): the vertices first,
+    then (geometry of degree 2) the nodes on edges, faces and the interior, in DOLFINx's order
+    (:data:`COUNTER_CLOCKWISE` turns a 2D cell's vertices counter-clockwise)."""
     geometry = mesh.geometry
     return _rows(geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap)
 
@@ -546,14 +584,15 @@ COUNTER_CLOCKWISE = {3: [0, 1, 2], 4: [0, 1, 3, 2]}
 
 def create_mesh_partitioned(comm: MPI.Comm, cells: npt.NDArray[np.int64], x: npt.NDArray[np.float64], *,
                             ghost_facet_neighbours: bool = False, cell: str | None = None) -> dolfinx.mesh.Mesh:
-    """Distributed mesh of degree-1 geometry partitioned by DOLFINx's graph partitioner.
+    """Distributed mesh partitioned by DOLFINx's graph partitioner.
 
     Parameters
     ----------
     cells : (n_cells, k) int64
         Input cells held by this rank (usually all on rank 0, none elsewhere): without ``cell``,
-        triangles or quadrilaterals with their vertices counter-clockwise; with ``cell``, in
-        DOLFINx's vertex order. Quadrilaterals and hexahedra may be non-affine (bilinear,
+        triangles or quadrilaterals of degree-1 geometry with their vertices counter-clockwise; with
+        ``cell``, in DOLFINx's node order, k the node count of a geometry of degree 1 or 2
+        (:func:`geometry_degree`: 10-node tetrahedra, 27-node hexahedra, ... are curved cells). Quadrilaterals and hexahedra may be non-affine (bilinear,
         trilinear maps): UFL differentiates their inverse Jacobian in second derivatives.
     x : (n_nodes, gdim) float64
         Input node coordinates held by this rank.
@@ -596,16 +635,17 @@ def create_cell_tags(mesh: dolfinx.mesh.Mesh, values: npt.NDArray[np.int32]):
     return dolfinx.mesh.meshtags(mesh, mesh.topology.dim, cells, np.ascontiguousarray(values, dtype=np.int32))
 
 
-def reference_quadrature(mesh: dolfinx.mesh.Mesh, degree: int, rule: str = "default"
+def reference_quadrature(mesh: dolfinx.mesh.Mesh | str, degree: int, rule: str = "default"
                          ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Basix's rule ``rule`` on the reference cell of ``mesh`` exact for ``degree``, the rule FFCx
-    uses for ``metadata={"quadrature_rule": rule, "quadrature_degree": degree}`` (both stacks spell
-    the metadata so): points (n, tdim) and weights (n,).
+    """Basix's rule ``rule`` on the reference cell of ``mesh`` (or on the cell type named) exact for
+    ``degree``, the rule FFCx uses for ``metadata={"quadrature_rule": rule, "quadrature_degree": degree}``
+    (both stacks spell the metadata so): points (n, tdim) and weights (n,).
 
     ``rule`` is a name of ``basix.quadrature.string_to_type``: ``"default"`` or ``"GLL"``
     (Gauss-Lobatto-Legendre, on quadrilaterals and hexahedra; degree 2-3: the Q2 nodes).
     """
-    cell = getattr(basix.CellType, mesh.topology.cell_type.name)
+    name = mesh if isinstance(mesh, str) else mesh.topology.cell_type.name
+    cell = getattr(basix.CellType, name)
     rule_type = basix.quadrature.string_to_type(rule)
     if hasattr(basix.quadrature, "make_quadrature"):          # basix 0.11: (cell, degree, rule=)
         points, weights = basix.make_quadrature(cell, degree, rule=rule_type)

@@ -31,7 +31,7 @@ from petsc4py import PETSc
 
 from dolfinx_sfvem.output import post
 from dolfinx_sfvem.path_following.adaptivity import Adaptivity
-from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh, note_flat
 from dolfinx_sfvem.mesh.named_boundaries import facet_marker
 from dolfinx_sfvem.physics.contact import OVERLAP_TOLERANCE, ContactPressure, Gap
 from dolfinx_sfvem.physics.contact_checks import solid_boundary
@@ -107,14 +107,15 @@ def _component(c: int | str, name: str, gdim: int = 2) -> int:
 def as_mesh(mesh: typing.Any) -> PolygonMesh | CellMesh | PolyhedronMesh:
     """The problem's mesh from what the user gives: a :class:`PolygonMesh`, a 3D :class:`CellMesh`,
     a :class:`PolyhedronMesh` (or an octree mesh, as its polyhedra), a 2D :class:`CellMesh` (turned
-    into the polygon mesh of its cells) or a pair ``(dolfinx mesh, cell tags)`` (gathered into a
-    :class:`CellMesh` on every rank, collective)."""
+    into the polygon mesh of its cells, straight-sided) or a pair ``(dolfinx mesh, cell tags)``
+    (gathered into a :class:`CellMesh` on every rank, collective, at its geometry degree)."""
     if hasattr(mesh, "polyhedra") and callable(mesh.polyhedra):       # OctreeMesh
         mesh = mesh.polyhedra()
     if isinstance(mesh, tuple) and len(mesh) == 2:
         mesh = CellMesh.from_dolfinx(*mesh)
     if isinstance(mesh, CellMesh) and mesh.tdim == 2:
         from dolfinx_sfvem._compat import COUNTER_CLOCKWISE
+        note_flat(mesh, "the polygons of a 2D CellMesh")
         polygons = PolygonMesh(mesh.points, mesh.cells[:, COUNTER_CLOCKWISE[mesh.cells.shape[1]]], mesh.tags,
                                insert_hanging_nodes=False)
         polygons.region_names.update(mesh.region_names)
@@ -150,8 +151,9 @@ class ContactProblem:
     ----------
     mesh
         Polygon mesh with region tags; or a :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`; or a pair
-        ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (degree-1 geometry) and
-        its region tags (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`
+        ``(dolfinx mesh, cell tags)`` of a DOLFINx mesh of tetrahedra or hexahedra (degree-1 or curved
+        degree-2 geometry, e.g. gmsh's second order through ``gmshio``) and its region tags
+        (:func:`as_mesh`); or a :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`
         (octree, Voronoi, extruded polygons; ``method="vem"`` only).
     materials
         Region tag -> energy (:class:`Hyperelastic`, :class:`ThirdMedium`, :class:`UserEnergy`).

@@ -3,10 +3,13 @@
 P2 on triangles, a triangulation of the polygon mesh's regions by default; or the cells of a
 given mesh (``fem_mesh``): P2 on its triangles, Q2 on its quadrilaterals; in 3D the cells of a
 :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` (:meth:`LagrangeDiscretization.from_cell_mesh`): P2
-on tetrahedra, Q2 on hexahedra. The geometry is degree 1: affine simplices, bilinear
-quadrilaterals and trilinear hexahedra, which need not be parallelograms/parallelepipeds (UFL
-differentiates the inverse Jacobian of a non-affine cell, so G below is right on it; a quadratic
-field is in the Q2 space of such a cell and its G is exact). The total energy
+on tetrahedra, Q2 on hexahedra. The geometry is of degree 1 (affine simplices, bilinear
+quadrilaterals and trilinear hexahedra, which need not be parallelograms/parallelepipeds) or 2
+(curved cells: 10-node tetrahedra, 6-node triangles, 27-node hexahedra, 9-node quadrilaterals, e.g.
+gmsh's second order). UFL differentiates the inverse Jacobian of a non-affine or curved cell, so G
+below is right on it (a quadratic field is in the Q2 space of a degree-1 quadrilateral or hexahedron
+and its G is exact; on curved cells the space is isoparametric, so a polynomial is interpolated,
+not reproduced). The total energy
 (paper Eq. 46 with the FEM interpolation in place of the projections)
 
     Π(u) = Σ_tag ∫_{Ω_tag} ψ_tag(F, G) dX,   F = I + ∇u,   G = ∇∇u (cell by cell),
@@ -66,7 +69,7 @@ from dolfinx_sfvem.output.logs import say
 from dolfinx_sfvem.discretizations.node_keys import lagrange_midpoint_keys, sfvem_unknowns
 from dolfinx_sfvem.mesh.cell_mesh import (
     CELL_TYPES, TOLERANCE, CellMesh, gather_cells, jacobian_determinants, reference_edges, reference_facets,
-    reference_vertices)
+    reference_vertices, vertices_first)
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh, edge_key
 from dolfinx_sfvem.mesh.remesh import matched_triangulation, triangulate
 
@@ -144,9 +147,10 @@ class LagrangeDiscretization(Discretization):
     Parameters
     ----------
     mesh
-        Triangle or tetrahedron mesh, or quadrilateral/hexahedron mesh, of degree-1 geometry (any
-        partition, ghosted or not); quadrilaterals and hexahedra need not be
-        parallelograms/parallelepipeds.
+        Triangle or tetrahedron mesh, or quadrilateral/hexahedron mesh, of degree-1 or degree-2
+        (curved) geometry (any partition, ghosted or not); quadrilaterals and hexahedra need not be
+        parallelograms/parallelepipeds. The :attr:`output_mesh` keeps the vertices (and, in 3D, the
+        degree-2 geometry: :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`).
     cell_tags
         Region tag of every local cell (``dolfinx.mesh.meshtags`` of the cells' dimension).
     materials
@@ -188,6 +192,11 @@ class LagrangeDiscretization(Discretization):
         self.cell_tag = np.full(n_local_cells, np.iinfo(np.int32).min, dtype=np.int64)
         self.cell_tag[cell_tags.indices] = cell_tags.values
         points, cells, tags, point_of_node = gather_cells(mesh, self.cell_tag, self.comm)
+        n_vertices = CELL_TYPES[_cell_type(mesh)][1]
+        n_vertex_points = points.shape[0]
+        if cells.shape[1] > n_vertices:                  # a curved geometry: its vertices are the output points
+            points, cells, n_vertex_points, new_index = vertices_first(points, cells, n_vertices)
+            point_of_node = new_index[point_of_node]
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
         if _cell_type(mesh) in LOBATTO_CELLS:
@@ -196,8 +205,8 @@ class LagrangeDiscretization(Discretization):
             check_materials(tags, materials, ("gauss",), f"on P2 {_cell_type(mesh)}s: the Gauss-Lobatto rule at the "
                                                          "nodes is that of Q2 quadrilaterals and hexahedra")
         if tdim == 2:
-            self._output_mesh = PolygonMesh(points, cells[:, _compat.COUNTER_CLOCKWISE[cells.shape[1]]], tags,
-                                            insert_hanging_nodes=False)
+            self._output_mesh = PolygonMesh(points[:n_vertex_points], cells[:, _compat.COUNTER_CLOCKWISE[n_vertices]],
+                                            tags, insert_hanging_nodes=False)
         else:
             self._output_mesh = CellMesh(points, cells, tags, _cell_type(mesh), region_names)
         self.materials = dict(sorted(materials.items()))
@@ -224,8 +233,8 @@ class LagrangeDiscretization(Discretization):
         im = self.V.dofmap.index_map
         n_nodes = im.size_local + im.num_ghosts
         dofs = _compat.cell_dofs(self.V)
-        vertex_point = point_of_node[_compat.cell_geometry_nodes(self.mesh)]
         cell, tdim = _cell_type(self.mesh), self.mesh.topology.dim
+        vertex_point = point_of_node[_compat.cell_geometry_nodes(self.mesh)[:, :CELL_TYPES[cell][1]]]
         n, n_vertices, n_edges = self._output_mesh.n_points, vertex_point.shape[1], len(_EDGE_VERTICES[cell])
         self.node_point = np.full(n_nodes, -1, dtype=np.int64)
         self.node_point[dofs[:, :n_vertices]] = vertex_point
@@ -459,11 +468,12 @@ class LagrangeDiscretization(Discretization):
                        comm: MPI.Comm = MPI.COMM_WORLD, *, quadrature_degree: int = QUADRATURE_DEGREE,
                        jump_penalty: float | None = None, verbose: bool = True) -> "LagrangeDiscretization":
         """The degree-2 Lagrange discretization on the cells of ``mesh`` (P2 on simplices, Q2 on
-        quadrilaterals and hexahedra, affine or not), distributed by DOLFINx's partitioner from rank 0's copy;
-        its :attr:`output_mesh` is ``mesh`` again (gathered back; the same points and cells).
+        quadrilaterals and hexahedra, affine or not, at the mesh's geometry degree, 1 or 2), distributed
+        by DOLFINx's partitioner from rank 0's copy; its :attr:`output_mesh` is ``mesh`` again
+        (gathered back; the same points, nodes and cells).
         ``jump_penalty``: as in :class:`LagrangeDiscretization` (the cells across the partition's
         faces are then ghosted)."""
-        cells, points = mesh.cells, mesh.points
+        cells, points = mesh.nodes, mesh.node_points
         if comm.rank != 0:
             cells, points = np.empty((0, cells.shape[1]), np.int64), np.empty((0, mesh.gdim))
         dmesh = _compat.create_mesh_partitioned(comm, cells, points, cell=mesh.cell_type,
@@ -474,7 +484,8 @@ class LagrangeDiscretization(Discretization):
         disc = cls(dmesh, cell_tags, materials, comm, quadrature_degree=quadrature_degree, mesh_size=h,
                    jump_penalty=jump_penalty, region_names=mesh.region_names)
         kind = "P2" if mesh.cell_type in ("triangle", "tetrahedron") else "Q2"
-        say(log, f"{kind} FEM: {mesh.n_cells} {mesh.cell_type}s, {disc.num_dofs_global} unknowns on {comm.size} "
+        curved = " curved (degree-2 geometry)" if mesh.geometry_degree > 1 else ""
+        say(log, f"{kind} FEM: {mesh.n_cells}{curved} {mesh.cell_type}s, {disc.num_dofs_global} unknowns on {comm.size} "
                  f"rank(s), quadrature degree {disc.quadrature_degree}", verbose, comm)
         return disc
 

@@ -4,18 +4,30 @@
 as the Lagrange FEM's :attr:`~dolfinx_sfvem.discretizations.fem.LagrangeDiscretization.output_mesh`: the
 points, the cells in DOLFINx's vertex order, a region tag per cell and the facets on the
 boundary of the mesh and between regions (the surfaces the contact checks, the pictures and
-the loads on faces use). Its cells are the images of the reference cell under the degree-1
-Lagrange map of their vertices: affine simplices; bilinear quadrilaterals and trilinear hexahedra,
-which need not be parallelograms/parallelepipeds (UFL differentiates the inverse Jacobian of such
-non-affine cells, so Q2's second derivatives are right on them too). A hexahedron's face may be
-non-planar: the bilinear surface through its four vertices. A cell is valid when the Jacobian
-determinant of its map has one sign, not near zero, at every vertex and at the centre
-(:func:`jacobian_determinants`); a cell where it changes sign (inverted, tangled) or vanishes
-(zero volume) is named in a ``ValueError``.
+the loads on faces use). Its cells are the images of the reference cell under the Lagrange map of
+their geometry nodes, of degree 1 or 2:
+
+- degree 1 (the cells' vertices): affine simplices; bilinear quadrilaterals and trilinear
+  hexahedra, which need not be parallelograms/parallelepipeds (UFL differentiates the inverse
+  Jacobian of such non-affine cells, so Q2's second derivatives are right on them too). A
+  hexahedron's face may be non-planar: the bilinear surface through its four vertices.
+- degree 2 (curved cells: gmsh's second-order 10-node tetrahedra, 6-node triangles, 27-node
+  hexahedra, 9-node quadrilaterals): the vertices and a node on every edge (and, for
+  quadrilaterals and hexahedra, on every face and inside), the quadratic map through them.
+
+:attr:`CellMesh.points` and :attr:`CellMesh.cells` are the vertices in both cases (what the
+polyhedral reading, the facets and the topology use: faces taken flat); :attr:`CellMesh.node_points`
+and :attr:`CellMesh.nodes` the whole geometry (the vertices first, so ``node_points[:n_points]`` is
+``points`` and ``nodes[:, :n_vertices]`` is ``cells``), and :meth:`CellMesh.edge_midpoints` /
+:meth:`CellMesh.face_centres` the geometry's points in the middle of edges and quadrilateral faces.
+A cell is valid when the Jacobian determinant of its map has one sign, not near zero, at every
+geometry node and at the centre (:func:`jacobian_determinants`); a cell where it changes sign
+(inverted, tangled) or vanishes (zero volume) is named in a ``ValueError``.
 
 Vertex order (DOLFINx's, :func:`basix.geometry`): a tetrahedron's reference vertices
 (0,0,0), (1,0,0), (0,1,0), (0,0,1); a hexahedron's in tensor-product order (0,0,0),
-(1,0,0), (0,1,0), (1,1,0), (0,0,1), ... A cell whose map from the reference cell has a
+(1,0,0), (0,1,0), (1,1,0), (0,0,1), ...; the nodes of a degree-2 geometry in basix's order
+(:func:`reference_nodes`). A cell whose map from the reference cell has a
 negative Jacobian determinant (a left-handed tetrahedron, as gmsh may write) is reordered
 (its reference axes 0 and 1 swapped, which changes the sign of the determinant everywhere in the
 cell, affine or not), so every cell of a :class:`CellMesh` has a positive Jacobian determinant
@@ -23,6 +35,7 @@ at its vertices and centre, and a positive volume.
 """
 from __future__ import annotations
 
+import logging
 import typing
 
 import numpy as np
@@ -32,20 +45,26 @@ from mpi4py import MPI
 import basix
 
 from dolfinx_sfvem import _compat
+from dolfinx_sfvem.mesh.csr import edge_key
 from dolfinx_sfvem.mesh.named_boundaries import boundary_names_check
+
+log = logging.getLogger(__name__)
 
 #: cell type -> (topological dimension, number of vertices)
 CELL_TYPES = {"triangle": (2, 3), "quadrilateral": (2, 4), "tetrahedron": (3, 4), "hexahedron": (3, 8)}
+#: cell type -> its plural, for messages
+PLURAL = {"triangle": "triangles", "quadrilateral": "quadrilaterals", "tetrahedron": "tetrahedra",
+          "hexahedron": "hexahedra"}
 #: tensor-product cells: their degree-1 map is multilinear, its Jacobian varies over the cell
 _TENSOR = ("quadrilateral", "hexahedron")
-#: cell type -> the vertex permutation that swaps the reference axes 0 and 1 (mirrors the cell)
-_MIRROR = {"triangle": [0, 2, 1], "quadrilateral": [0, 2, 1, 3], "tetrahedron": [0, 2, 1, 3],
-           "hexahedron": [0, 2, 1, 3, 4, 6, 5, 7]}
 #: relative tolerance of the Jacobian checks (of the cell's diameter to the power tdim)
 TOLERANCE = 1e-9
 #: 2-point Gauss-Legendre rule on [0, 1]: exact for degree 3, so the rule of its tensor product
 #: integrates the multilinear map's Jacobian determinant (degree <= 2 per direction) exactly
 _GAUSS_2 = (0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0))
+#: degree of the rule :attr:`CellMesh.volumes` integrates a degree-2 map's Jacobian determinant
+#: with: exact (degree 3 on a tetrahedron, at most 5 per direction on a hexahedron)
+_CURVED_VOLUME_DEGREE = 6
 
 
 def reference_vertices(cell_type: str) -> np.ndarray:
@@ -53,8 +72,19 @@ def reference_vertices(cell_type: str) -> np.ndarray:
     return np.asarray(basix.geometry(getattr(basix.CellType, cell_type)), dtype=np.float64)
 
 
-def shape_gradients(cell_type: str, xi: npt.ArrayLike) -> np.ndarray:
-    """Reference gradients of the degree-1 Lagrange basis functions (one per vertex, DOLFINx's order).
+def reference_nodes(cell_type: str, degree: int = 1) -> np.ndarray:
+    """Reference coordinates (n_nodes, tdim) of the nodes of a geometry of ``degree`` (DOLFINx's
+    order): the vertices (degree 1); then the edges' midpoints in the order of
+    :func:`reference_edges`, and for quadrilaterals and hexahedra the faces' and the cell's centres
+    (degree 2)."""
+    if degree == 1:
+        return reference_vertices(cell_type)
+    return np.asarray(_compat.lagrange_element(cell_type, degree).points, dtype=np.float64)
+
+
+def shape_gradients(cell_type: str, xi: npt.ArrayLike, degree: int = 1) -> np.ndarray:
+    """Reference gradients of the Lagrange basis functions of a geometry of ``degree`` (one per
+    node, DOLFINx's order).
 
     Parameters
     ----------
@@ -63,11 +93,15 @@ def shape_gradients(cell_type: str, xi: npt.ArrayLike) -> np.ndarray:
 
     Returns
     -------
-    (n_points, n_vertices, tdim)
-        dφ_k/dξ_j at every point: constant on simplices, multilinear on quadrilaterals and
-        hexahedra (φ_k = Π_d (r_kd ξ_d + (1 - r_kd)(1 - ξ_d)) for the reference vertex r_k).
+    (n_points, n_nodes, tdim)
+        dφ_k/dξ_j at every point: for degree 1 constant on simplices, multilinear on
+        quadrilaterals and hexahedra (φ_k = Π_d (r_kd ξ_d + (1 - r_kd)(1 - ξ_d)) for the reference
+        vertex r_k); for degree 2 basix's quadratic basis.
     """
     xi = np.asarray(xi, dtype=np.float64).reshape(-1, CELL_TYPES[cell_type][0])
+    if degree != 1:
+        table = _compat.lagrange_element(cell_type, degree).tabulate(1, xi)      # (1 + tdim, n, k, 1)
+        return np.moveaxis(np.asarray(table)[1:, :, :, 0], 0, -1)
     ref = reference_vertices(cell_type)                                   # (k, tdim)
     if cell_type not in _TENSOR:
         grad = np.vstack([-np.ones(ref.shape[1]), np.eye(ref.shape[1])])   # φ_0 = 1 - Σ ξ, φ_k = ξ_k
@@ -81,28 +115,69 @@ def shape_gradients(cell_type: str, xi: npt.ArrayLike) -> np.ndarray:
 
 
 def jacobian_determinants(x: np.ndarray, cell_type: str, xi: npt.ArrayLike | None = None) -> np.ndarray:
-    """Jacobian determinants of the degree-1 maps of cells from their reference cell.
+    """Jacobian determinants of the Lagrange maps of cells from their reference cell.
 
     Parameters
     ----------
-    x : (n_cells, n_vertices, tdim)
-        The cells' vertex coordinates, DOLFINx's order.
+    x : (n_cells, n_nodes, tdim)
+        The cells' geometry nodes, DOLFINx's order: their vertices (degree-1 geometry) or all
+        nodes of a degree-2 geometry (:func:`~dolfinx_sfvem._compat.geometry_degree` tells them apart).
     xi : (n_points, tdim), optional
-        Reference points; default: the reference vertices and the centre (the points where
+        Reference points; default: the reference nodes and the centre (the points where
         :class:`CellMesh` checks its cells).
 
     Returns
     -------
     (n_cells, n_points)
-        det(∂x/∂ξ) at every point (constant in a simplex; for a quadrilateral or hexahedron the
-        determinant at a vertex is that of the cell's edges from the vertex along the reference
-        axes).
+        det(∂x/∂ξ) at every point (constant in an affine simplex; for a quadrilateral or
+        hexahedron of degree 1 the determinant at a vertex is that of the cell's edges from the
+        vertex along the reference axes).
     """
+    degree = _compat.geometry_degree(cell_type, x.shape[1])
     if xi is None:
-        ref = reference_vertices(cell_type)
-        xi = np.vstack([ref, ref.mean(axis=0)])
-    J = np.einsum("cki,pkj->cpij", x, shape_gradients(cell_type, xi))
+        ref = reference_nodes(cell_type, degree)
+        xi = np.vstack([ref, reference_vertices(cell_type).mean(axis=0)])
+    J = np.einsum("cki,pkj->cpij", x, shape_gradients(cell_type, xi, degree))
     return np.linalg.det(J) if J.size else np.zeros(J.shape[:2])
+
+
+def mirror_permutation(cell_type: str, degree: int = 1) -> np.ndarray:
+    """The node permutation (n_nodes,) that swaps the reference axes 0 and 1 (mirrors a cell, turns
+    the sign of its Jacobian determinant everywhere): new node i is old node ``p[i]``."""
+    ref = reference_nodes(cell_type, degree)
+    swapped = ref.copy()
+    swapped[:, [0, 1]] = ref[:, [1, 0]]
+    return np.argmin(np.abs(swapped[:, None] - ref[None]).sum(axis=2), axis=1)
+
+
+def vertices_first(points: np.ndarray, nodes: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+    """The geometry nodes renumbered so that the cells' vertices come first.
+
+    Parameters
+    ----------
+    points : (n, gdim)
+        Geometry node coordinates.
+    nodes : (n_cells, k) int
+        Every cell's geometry nodes, its ``n_vertices`` vertices first.
+
+    Returns
+    -------
+    points : (n, gdim)
+        The same points, the cells' vertices first, each part in the given order (a mesh whose
+        vertices come first is returned unchanged).
+    nodes : (n_cells, k) int64
+        Renumbered.
+    n_vertex_points : int
+        How many points are vertices.
+    new_index : (n,) int64
+        The new index of every given point.
+    """
+    is_vertex = np.zeros(points.shape[0], dtype=bool)
+    is_vertex[nodes[:, :n_vertices]] = True
+    order = np.concatenate([np.flatnonzero(is_vertex), np.flatnonzero(~is_vertex)])
+    new_index = np.empty(order.size, dtype=np.int64)
+    new_index[order] = np.arange(order.size)
+    return points[order], new_index[nodes], int(is_vertex.sum()), new_index
 
 
 def reference_facets(cell_type: str) -> list[list[int]]:
@@ -133,6 +208,16 @@ def facet_normals(points: np.ndarray, facets: np.ndarray) -> np.ndarray:
     return 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
 
 
+def note_flat(mesh: "CellMesh", reader: str) -> None:
+    """Say in one logging warning that ``reader`` takes the cells of a curved ``mesh`` (degree-2
+    geometry) by their vertices, with flat faces (straight edges in 2D); nothing for degree 1."""
+    if mesh.geometry_degree > 1:
+        faces = "faces" if mesh.tdim == 3 else "edges"
+        log.warning(f"{reader}: the mesh has curved (degree-2) {PLURAL[mesh.cell_type]}; their vertices are kept and "
+                    f"their {faces} taken {'flat' if mesh.tdim == 3 else 'straight'} (method='fem' on the "
+                    f"CellMesh uses the curved geometry{'' if mesh.tdim == 3 else ' in 3D'})")
+
+
 class CellOutlines(typing.NamedTuple):
     """The cells that the cells of a :class:`CellMesh` subdivide, for drawing: the SFVEM's polyhedra
     over their fan tetrahedra (:attr:`~dolfinx_sfvem.discretizations.discretization.Discretization.cell_outlines`).
@@ -155,9 +240,11 @@ class CellMesh:
     Parameters
     ----------
     points : (n_points, gdim) float
-        Vertex coordinates, gdim = 2 or 3 (3 columns for a 2D cell type with z = 0 are cut).
+        Geometry node coordinates, gdim = 2 or 3 (3 columns for a 2D cell type with z = 0 are cut).
     cells : (n_cells, k) int
-        Vertex indices of every cell in DOLFINx's order of ``cell_type``.
+        Geometry node indices of every cell in DOLFINx's order of ``cell_type``: its vertices
+        (k = 4 for a tetrahedron, ...: degree-1 geometry), or all nodes of a degree-2 geometry
+        (k = 10 for a tetrahedron, 27 for a hexahedron, 6 for a triangle, 9 for a quadrilateral).
     tags : (n_cells,) int
         Region tag of every cell.
     cell_type
@@ -178,8 +265,20 @@ class CellMesh:
 
     Attributes
     ----------
-    points, cells, tags, region_names, boundary_names, cell_type
-        As given (cells with a negative orientation reordered, module docstring).
+    points : (n_points, gdim) float
+        The vertices (the given points for degree 1; for degree 2 the points that are vertices of
+        a cell, in the given order).
+    cells : (n_cells, n_vertices) int64
+        The cells' vertices, indices into ``points`` (cells with a negative orientation reordered,
+        module docstring).
+    node_points : (n_nodes, gdim) float
+        All geometry nodes, ``points`` first (the same array for degree 1).
+    nodes : (n_cells, k) int64
+        Every cell's geometry nodes, indices into ``node_points``; ``nodes[:, :n_vertices]`` is ``cells``.
+    geometry_degree : int
+        1 or 2.
+    tags, region_names, boundary_names, cell_type
+        As given (boundary facets as vertex indices).
     gdim, tdim : int
     """
 
@@ -197,16 +296,25 @@ class CellMesh:
             raise ValueError(f"{cell_type} mesh: points must have {self.tdim} columns, got shape {points.shape}")
         self.gdim = self.tdim
         cells = np.array(cells, dtype=np.int64, ndmin=2)
-        if cells.shape[1] != n_vertices:
-            raise ValueError(f"{cell_type} mesh: cells must have {n_vertices} vertices each, got shape {cells.shape}")
+        try:
+            self.geometry_degree = _compat.geometry_degree(cell_type, cells.shape[1])
+        except ValueError as err:
+            raise ValueError(f"{err} (got shape {cells.shape})") from None
         if cells.size and (cells.min() < 0 or cells.max() >= points.shape[0]):
             bad = int(np.flatnonzero((cells < 0).any(axis=1) | (cells >= points.shape[0]).any(axis=1))[0])
             raise ValueError(f"{cell_type} {bad} has vertex indices {cells[bad].tolist()} outside [0, {points.shape[0]})")
         tags = np.asarray(tags, dtype=np.int64).reshape(-1)
         if tags.shape != (cells.shape[0],):
             raise ValueError(f"one tag per cell expected: {tags.size} tags for {cells.shape[0]} cells")
-        self.points = points
-        self.cells = self._oriented(cells)
+        if self.geometry_degree > 1:
+            points, cells, n_vertex_points, _ = vertices_first(points, cells, n_vertices)
+        else:
+            n_vertex_points = points.shape[0]
+        self.node_points = points
+        self.nodes = self._oriented(cells)
+        self.points = points[:n_vertex_points]
+        self.cells = self.nodes[:, :n_vertices]
+        self._edge_nodes: tuple[np.ndarray, np.ndarray] | None = None      # :meth:`edge_midpoints`
         self.tags = tags
         self.region_names = {str(name): int(tag) for name, tag in (region_names or {}).items()}
         unknown = {name: tag for name, tag in self.region_names.items() if tag not in set(tags.tolist())}
@@ -217,26 +325,30 @@ class CellMesh:
 
     # ------------------------------------------------------------------ validation
     def _oriented(self, cells: np.ndarray) -> np.ndarray:
-        """The cells with a positive Jacobian determinant at their vertices and centre (mirrored
-        where it is negative there); ValueError naming a cell where it vanishes or changes sign."""
-        x = self.points[cells]                                      # (n, k, d)
+        """The cells (geometry nodes) with a positive Jacobian determinant at their nodes and centre
+        (mirrored where it is negative there); ValueError naming a cell where it vanishes or changes sign."""
+        x = self.node_points[cells]                                 # (n, k, d)
         det = jacobian_determinants(x, self.cell_type)              # (n, k + 1)
-        size = np.linalg.norm(x[:, :, None] - x[:, None], axis=3).max(axis=(1, 2)) if len(x) else np.zeros(0)
+        corners = x[:, :CELL_TYPES[self.cell_type][1]]
+        size = np.linalg.norm(corners[:, :, None] - corners[:, None], axis=3).max(axis=(1, 2)) if len(x) \
+            else np.zeros(0)
         tol = TOLERANCE * size[:, None] ** self.tdim
         positive, negative = np.all(det > tol, axis=1), np.all(det < -tol, axis=1)
         bad = np.flatnonzero(~positive & ~negative)
         if bad.size:
             c = int(bad[0])
-            where = [f"vertex {k}" for k in range(det.shape[1] - 1)] + ["the centre"]
+            n_vertices = CELL_TYPES[self.cell_type][1]
+            nodes = "vertices" if self.geometry_degree == 1 else "nodes"
+            where = [f"vertex {k}" if k < n_vertices else f"node {k}" for k in range(det.shape[1] - 1)] + ["the centre"]
             lo, hi = int(np.argmin(det[c])), int(np.argmax(det[c]))
             what = "has zero volume" if np.all(np.abs(det[c]) <= tol[c]) else \
                 (f"is inverted or degenerate: the Jacobian determinant of its map from the reference cell is "
                  f"{det[c, lo]:.3g} at its {where[lo]} and {det[c, hi]:.3g} at its {where[hi]} (it must "
-                 "have one sign, away from zero, at the vertices and the centre)")
-            raise ValueError(f"{self.cell_type} {c} (vertices {cells[c].tolist()}, points "
-                             f"{np.round(self.points[cells[c]], 12).tolist()}) {what}")
+                 f"have one sign, away from zero, at the {nodes} and the centre)")
+            raise ValueError(f"{self.cell_type} {c} ({nodes} {cells[c].tolist()}, points "
+                             f"{np.round(self.node_points[cells[c]], 12).tolist()}) {what}")
         cells = cells.copy()
-        cells[negative] = cells[negative][:, _MIRROR[self.cell_type]]
+        cells[negative] = cells[negative][:, mirror_permutation(self.cell_type, self.geometry_degree)]
         return cells
 
     def _all_facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -294,7 +406,11 @@ class CellMesh:
     @property
     def volumes(self) -> np.ndarray:
         """Volume (area in 2D) of every cell (n_cells,), exact: the Jacobian determinant integrated
-        over the reference cell (constant on a simplex; 2-point Gauss per direction otherwise)."""
+        over the reference cell (constant on an affine simplex; 2-point Gauss per direction on a
+        degree-1 quadrilateral or hexahedron; a rule of degree 6 on curved cells)."""
+        if self.geometry_degree > 1:
+            xi, w = _compat.reference_quadrature(self.cell_type, _CURVED_VOLUME_DEGREE)
+            return jacobian_determinants(self.node_points[self.nodes], self.cell_type, xi) @ w
         x = self.points[self.cells]
         if self.cell_type not in _TENSOR:
             return jacobian_determinants(x, self.cell_type)[:, 0] / (6.0 if self.tdim == 3 else 2.0)
@@ -336,6 +452,47 @@ class CellMesh:
         chosen = inside[cell] & ((neighbour < 0) | ~inside[np.maximum(neighbour, 0)])
         return facets[chosen], cell[chosen], neighbour[chosen]
 
+    def edge_midpoints(self, a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
+        """The geometry's points (m, gdim) in the middle of the edges between the points ``a`` and
+        ``b`` (m,): the edge's node of a degree-2 geometry (on the curved edge), the mean of
+        the two points for degree 1. ValueError for a pair that is no edge (degree 2)."""
+        a, b = np.asarray(a, dtype=np.int64).reshape(-1), np.asarray(b, dtype=np.int64).reshape(-1)
+        if self.geometry_degree == 1:
+            return 0.5 * (self.points[a] + self.points[b])
+        if self._edge_nodes is None:
+            n_vertices = CELL_TYPES[self.cell_type][1]
+            pairs = reference_edges(self.cell_type)
+            keys = np.concatenate([edge_key(self.cells[:, i], self.cells[:, j], self.n_points) for i, j in pairs])
+            node = np.concatenate([self.nodes[:, n_vertices + k] for k in range(len(pairs))])
+            keys, first = np.unique(keys, return_index=True)
+            self._edge_nodes = keys, node[first]
+        return self.node_points[self._lookup(*self._edge_nodes, edge_key(a, b, self.n_points), "edge")]
+
+    def face_centres(self, faces: npt.ArrayLike) -> np.ndarray:
+        """The geometry's points (m, gdim) at the centres of the quadrilateral faces (m, 4) (vertex
+        indices in cyclic order): the face's node of a degree-2 geometry, the image of the
+        reference face's centre (the mean of the four vertices) for degree 1."""
+        faces = np.asarray(faces, dtype=np.int64).reshape(-1, 4)
+        if self.geometry_degree == 1:
+            return self.points[faces].mean(axis=1)
+        local = [f for f in reference_facets(self.cell_type) if len(f) == 4] if self.tdim == 3 else []
+        if not local:
+            raise ValueError(f"a {self.cell_type} mesh has no quadrilateral faces")
+        first = CELL_TYPES[self.cell_type][1] + len(reference_edges(self.cell_type))
+        keys = np.concatenate([edge_key(self.cells[:, f[0]], self.cells[:, f[2]], self.n_points) for f in local])
+        node = np.concatenate([self.nodes[:, first + k] for k in range(len(local))])
+        keys, unique = np.unique(keys, return_index=True)
+        return self.node_points[self._lookup(keys, node[unique], edge_key(faces[:, 0], faces[:, 2], self.n_points),
+                                             "face")]
+
+    @staticmethod
+    def _lookup(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray, what: str) -> np.ndarray:
+        """``values`` at the sorted ``keys`` equal to ``wanted``; ValueError for a key not found."""
+        at = np.minimum(np.searchsorted(keys, wanted), max(keys.size - 1, 0))
+        if keys.size == 0 or np.any(keys[at] != wanted):
+            raise ValueError(f"a requested {what} is no {what} of the mesh")
+        return values[at]
+
     def edges(self) -> np.ndarray:
         """Every edge once, (n_edges, 2) int64 point indices, the lower first."""
         pairs = np.concatenate([self.cells[:, e] for e in reference_edges(self.cell_type)])
@@ -344,9 +501,10 @@ class CellMesh:
     # ------------------------------------------------------------------ DOLFINx
     @classmethod
     def from_dolfinx(cls, mesh, cell_tags, region_names: typing.Mapping[str, int] | None = None) -> "CellMesh":
-        """The mesh of a (distributed) DOLFINx mesh of degree-1 geometry and its cell tags, on every rank
-        (collective). Points are ordered by their input index, cells by their input index;
-        every cell must be tagged (ValueError naming an untagged one)."""
+        """The mesh of a (distributed) DOLFINx mesh and its cell tags, on every rank (collective), at
+        the geometry degree the mesh has (1 or 2). Points are ordered by their input index (for
+        degree 2 the vertices first), cells by their input index; every cell must be tagged
+        (ValueError naming an untagged one)."""
         tag = np.full(_compat.num_owned_cells(mesh) + mesh.topology.index_map(mesh.topology.dim).num_ghosts,
                       np.iinfo(np.int64).min, dtype=np.int64)
         tag[cell_tags.indices] = cell_tags.values

@@ -43,7 +43,7 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
-from dolfinx_sfvem.mesh.cell_mesh import TOLERANCE, CellMesh, facet_normals, reference_facets
+from dolfinx_sfvem.mesh.cell_mesh import TOLERANCE, CellMesh, facet_normals, note_flat, reference_facets
 from scipy.spatial import cKDTree
 
 from dolfinx_sfvem.mesh.polygon import RTOL, point_location, self_intersection
@@ -583,9 +583,13 @@ class PolyhedronMesh:
         hexahedron that is not a parallelepiped may have them) becomes two flat triangles, split
         along the diagonal through its vertex of smallest index, the same in the two cells that
         share it: the polyhedron keeps the vertices and takes the face as these two triangles, where
-        the trilinear hexahedron of the Lagrange FEM has the bilinear surface through them."""
+        the trilinear hexahedron of the Lagrange FEM has the bilinear surface through them.
+
+        A mesh of curved cells (degree-2 geometry) is read by its vertices, its faces taken flat;
+        a logging warning says so (:func:`~dolfinx_sfvem.mesh.cell_mesh.note_flat`)."""
         if mesh.tdim != 3:
             raise ValueError(f"from_cell_mesh: a 3D mesh of tetrahedra or hexahedra is needed, got {mesh.cell_type}")
+        note_flat(mesh, "the polyhedra of a CellMesh")
         local = np.asarray(reference_facets(mesh.cell_type), dtype=np.int64)     # (n_local, k)
         faces = mesh.cells[:, local].reshape(-1, local.shape[1])                  # cell-major
         centre = np.repeat(mesh.points[mesh.cells].mean(axis=1), local.shape[0], axis=0)

@@ -118,18 +118,21 @@ class Benchmark3D:
         and the SFVEM's face-mean nodes (at the face centroids: a triangle's or a parallelogram's
         vertex mean; on a :class:`PolyhedronMesh` the faces' centroids, where the SFVEM's fans
         start on convex faces), which a boundary condition on the surface must hold too. On a
-        curved surface the midpoints and centres lie off it (on the flat faces)."""
+        curved surface the midpoints and centres lie off it (on the flat faces), unless the mesh has
+        degree-2 geometry: there the edges' and quadrilaterals' nodes are the geometry's
+        (:meth:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh.edge_midpoints`, ``face_centres``), on the surface."""
         mesh = self.mesh
         on = self._surface(name).contains(mesh.points, self.tol)
         if isinstance(mesh, PolyhedronMesh):
             edges = mesh.edges()
+            midpoints = mesh.points[edges].mean(axis=1)
             centres = mesh.face_centroids[np.logical_and.reduceat(on[mesh.face_vertices], mesh.face_offsets[:-1])]
         else:
             edges, faces = _cell_edges_and_faces(mesh)
+            midpoints = mesh.edge_midpoints(edges[:, 0], edges[:, 1])
             faces = faces[on[faces].all(axis=1)]
-            centres = mesh.points[faces].mean(axis=1)
-        edges = edges[on[edges].all(axis=1)]
-        nodes = [mesh.points[on], mesh.points[edges].mean(axis=1), centres]
+            centres = mesh.face_centres(faces) if faces.shape[1] == 4 else mesh.points[faces].mean(axis=1)
+        nodes = [mesh.points[on], midpoints[on[edges].all(axis=1)], centres]
         return np.unique(np.concatenate(nodes), axis=0)
 
     def marker(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -364,7 +367,7 @@ def _hertz_benchmark(mesh: CellMesh | PolyhedronMesh, gap: float) -> Benchmark3D
 
 # --------------------------------------------------------------------------- the thick sphere
 def thick_sphere(a: float = 1.0, b: float = 2.0, h: float = 0.25, *, filled: bool = False,
-                 keep_gmsh: str | os.PathLike | None = None) -> Benchmark3D:
+                 keep_gmsh: str | os.PathLike | None = None, order: int = 1) -> Benchmark3D:
     """1/8 of a thick spherical shell a < R < b (x, y, z >= 0) for internal, dead, follower or
     cavity pressure; exact answers :func:`dolfinx_sfvem.exact.thick_sphere`.
 
@@ -375,7 +378,9 @@ def thick_sphere(a: float = 1.0, b: float = 2.0, h: float = 0.25, *, filled: boo
     The spheres are followed by flat triangles whose vertices lie on them (gmsh places the boundary
     nodes on the surfaces); the edge midpoints, where P2 has its nodes, lie inside a sphere of
     radius r by the sagitta l^2 / (8 r) of an edge of length l, so the volumes fall short of the
-    exact ones by O(h^2) and so does every answer of the discrete problem.
+    exact ones by O(h^2) and so does every answer of the discrete problem. With ``order=2`` the
+    tetrahedra are gmsh's second-order ones, their edge nodes on the spheres too (a mesh of
+    degree-2 geometry, for the FEM: curved faces; the SFVEM takes its faces flat).
 
     Named points: ``inner_x`` (a, 0, 0), ``inner_y``, ``inner_z``, ``outer_x`` (b, 0, 0), ``outer_y``,
     ``outer_z``, and ``centre`` (0, 0, 0) when filled. Named surfaces: ``inner`` (R = a, the cavity
@@ -404,7 +409,7 @@ def thick_sphere(a: float = 1.0, b: float = 2.0, h: float = 0.25, *, filled: boo
         return regions
 
     regions = {"solid": SOLID, "cavity": MEDIUM} if filled else {"solid": SOLID}
-    mesh = gmsh_tetrahedra(build, regions, keep_gmsh)
+    mesh = gmsh_tetrahedra(build, regions, keep_gmsh, order)
     points = {f"{name}_{axis}": tuple(r * float(i == k) for k in range(3))
               for name, r in (("inner", a), ("outer", b)) for i, axis in enumerate("xyz")}
     if filled:

@@ -4,9 +4,11 @@ geometry builder meshed in a gmsh session of our own; and :func:`read_gmsh`, the
 models with their physical groups as regions and named boundaries.
 
 Parallel use: gmsh meshes identically on every rank (one thread, the same input), as the 2D
-generators do; the caller needs no rank logic. Only the cells' corner nodes are read: the cells
-are straight-sided (flat faces), their vertices on the geometry (gmsh places boundary nodes on the
-curved surfaces).
+generators do; the caller needs no rank logic. A first-order mesh gives straight-sided cells (flat
+faces), their vertices on the geometry (gmsh places boundary nodes on the curved surfaces); a
+second-order one (``gmsh.model.mesh.setOrder(2)``: 10-node tetrahedra, 27-node hexahedra) a
+:class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` of degree-2 geometry, whose edge nodes gmsh places
+on the curved surfaces too.
 """
 from __future__ import annotations
 
@@ -15,10 +17,11 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from dolfinx_sfvem.mesh.cell_mesh import CellMesh
+from dolfinx_sfvem import _compat
+from dolfinx_sfvem.mesh.cell_mesh import CellMesh, vertices_first
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.meshing.gmsh_io import (
-    check_grouped, element_corners, entity_regions, gmsh_model, gmsh_session, named_boundaries, read_polygons_of_model,
+    check_grouped, element_nodes, entity_regions, gmsh_model, gmsh_session, named_boundaries, read_polygons_of_model,
     region_names)
 from dolfinx_sfvem.meshing.hexahedra import right_handed
 
@@ -42,9 +45,11 @@ def model_volume_cells(gmsh, region_tags: Mapping[str, int] | None = None
     Returns
     -------
     points : (n, 3) float64
-        Corner nodes used by the cells (higher-order nodes dropped).
-    cells : (m, 4) or (m, 8) int64
-        Tetrahedra right-handed, or hexahedra in DOLFINx's vertex order.
+        Nodes used by the cells.
+    cells : (m, k) int64
+        First order (k = 4 or 8): tetrahedra right-handed, or hexahedra in DOLFINx's vertex order;
+        second order (k = 10 or 27): all nodes in DOLFINx's order (oriented by
+        :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh`).
     tags : (m,) int64
         Region tag of every cell (:func:`~dolfinx_sfvem.meshing.gmsh_io.entity_regions` of dim 3).
     cell_type : "tetrahedron" or "hexahedron"
@@ -52,28 +57,38 @@ def model_volume_cells(gmsh, region_tags: Mapping[str, int] | None = None
     Raises
     ------
     ValueError
-        If the selected volumes have no cells, or cells of another type (prisms, pyramids) or of
-        two types.
+        If the selected volumes have no cells, or cells of another type (prisms, pyramids, 20-node
+        hexahedra) or of two types.
     """
     node_tags, coords, _ = gmsh.model.mesh.getNodes()
     xyz = coords.reshape(-1, 3)
     node_order = np.argsort(node_tags)
-    blocks, tags = [], []
+    blocks, tags, corners = [], [], set()
     for entity, tag in entity_regions(gmsh, region_tags, dim=3).items():
-        for name, cells in element_corners(gmsh, 3, entity, node_tags, node_order):
-            if cells.shape[1] not in _CELL_TYPES:
+        for name, cells, n_corners in element_nodes(gmsh, 3, entity, node_tags, node_order):
+            if n_corners not in _CELL_TYPES:
                 raise ValueError(f"gmsh volume {entity} has {name} cells; only tetrahedra or hexahedra are read")
+            if cells.shape[1] > n_corners:             # second order: gmsh's node order -> DOLFINx's
+                try:
+                    _compat.geometry_degree(_CELL_TYPES[n_corners], cells.shape[1])
+                except ValueError as err:
+                    raise ValueError(f"gmsh volume {entity} has {name} cells: {err}; for hexahedra set "
+                                     "Mesh.SecondOrderIncomplete = 0") from None
+                cells = cells[:, _compat.gmsh_node_permutation(_CELL_TYPES[n_corners], cells.shape[1])]
             blocks.append(cells)
+            corners.add(n_corners)
             tags.append(np.full(len(cells), tag, dtype=np.int64))
     if not blocks:
         raise ValueError("the gmsh model has no 3D elements in the selected volumes")
     if len({block.shape[1] for block in blocks}) > 1:
-        raise ValueError("the gmsh model mixes tetrahedra and hexahedra; a CellMesh has one cell type")
+        raise ValueError("the gmsh model mixes tetrahedra and hexahedra, or orders 1 and 2; a CellMesh has one "
+                         "cell type and one geometry degree")
     cells = np.concatenate(blocks)
     used, renumbered = np.unique(cells, return_inverse=True)
     points, cells = xyz[used], renumbered.reshape(cells.shape).astype(np.int64)
-    cell_type = _CELL_TYPES[cells.shape[1]]
-    cells = right_handed(points, cells) if cell_type == "tetrahedron" else cells[:, GMSH_TO_DOLFINX_HEXAHEDRON]
+    cell_type = _CELL_TYPES[corners.pop()]
+    if cells.shape[1] in _CELL_TYPES:                   # first order
+        cells = right_handed(points, cells) if cell_type == "tetrahedron" else cells[:, GMSH_TO_DOLFINX_HEXAHEDRON]
     return points, cells, np.concatenate(tags), cell_type
 
 
@@ -89,8 +104,8 @@ def read_gmsh(source: str | os.PathLike | None = None,
     become regions (``region_names``, name -> tag: materials by name); the named ones of one
     dimension less (surfaces in 3D, curves in 2D) become ``boundary_names``, which ``fix``,
     ``prescribe``, ``traction`` and ``pressure`` of :class:`~dolfinx_sfvem.ContactProblem` take by
-    name. Only the corner nodes of the cells are read: second-order nodes are dropped (the cells
-    are straight-sided).
+    name. A second-order model (10-node tetrahedra, 27-node hexahedra) gives a mesh of degree-2
+    (curved) geometry; 2D models are read as polygons of their corner nodes (straight-sided).
 
     Parameters
     ----------
@@ -140,26 +155,31 @@ def _read_model(gmsh, region_tags: Mapping[str, int] | None) -> CellMesh:
     if region_tags is None:
         check_grouped(gmsh, 3)
     points, cells, tags, cell_type = model_volume_cells(gmsh, region_tags)
+    points, cells, n_vertex_points, _ = vertices_first(points, cells, 4 if cell_type == "tetrahedron" else 8)
     return CellMesh(points, cells, tags, cell_type, region_names(gmsh, region_tags, dim=3),
-                    named_boundaries(gmsh, 3, points))
+                    named_boundaries(gmsh, 3, points[:n_vertex_points]))
 
 
 def gmsh_tetrahedra(build: VolumeBuilder, names: Mapping[str, int],
-                    keep_gmsh: str | os.PathLike | None = None) -> CellMesh:
+                    keep_gmsh: str | os.PathLike | None = None, order: int = 1) -> CellMesh:
     """Tetrahedra of the geometry ``build`` makes (:data:`VolumeBuilder`), meshed by gmsh's 3D
     Delaunay in one thread (the same mesh on every rank and every run). Coordinates within
     :data:`ROUND_OFF` x the mesh size of zero are set to zero (gmsh leaves ~1e-16 on the planes
     x = 0, y = 0, z = 0, where symmetry conditions go).
 
     ``names`` (region name -> tag) becomes the mesh's ``region_names``. With ``keep_gmsh`` the
-    mesh is also written to ``<keep_gmsh>.msh``.
+    mesh is also written to ``<keep_gmsh>.msh``. ``order=2``: gmsh's second-order tetrahedra (its
+    edge nodes on the curved surfaces), a mesh of degree-2 geometry.
     """
+    if order not in _compat.GEOMETRY_DEGREES:
+        raise ValueError(f"order must be one of {_compat.GEOMETRY_DEGREES}, not {order!r}")
     with gmsh_session() as gmsh:
         gmsh.option.setNumber("General.NumThreads", 1)
         gmsh.option.setNumber("Mesh.Algorithm3D", 1)
         for tag, volumes in build(gmsh).items():
             gmsh.model.addPhysicalGroup(3, list(volumes), tag)
         gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(order)
         if keep_gmsh is not None:
             gmsh.write(os.fspath(keep_gmsh) + ".msh")
         points, cells, tags, cell_type = model_volume_cells(gmsh, None)

@@ -99,16 +99,24 @@ def entity_regions(gmsh, region_tags: Mapping[str, int] | None, dim: int = 2) ->
     return regions
 
 
-def element_corners(gmsh, dim: int, entity: int, node_tags: np.ndarray, node_order: np.ndarray
-                    ) -> Iterator[tuple[str, np.ndarray]]:
+def element_nodes(gmsh, dim: int, entity: int, node_tags: np.ndarray, node_order: np.ndarray
+                  ) -> Iterator[tuple[str, np.ndarray, int]]:
     """The elements of a ``dim``-dimensional entity of the current gmsh model, one block per
-    element type: (gmsh's type name, corner nodes (m, n_corners) as indices into the arrays of
-    ``gmsh.model.mesh.getNodes()``, whose tags are ``node_tags`` and ``node_order`` their argsort).
-    Higher-order nodes are dropped."""
+    element type: (gmsh's type name, all nodes (m, n_nodes) in gmsh's order as indices into the
+    arrays of ``gmsh.model.mesh.getNodes()``, whose tags are ``node_tags`` and ``node_order`` their
+    argsort, the number of corner nodes, which come first)."""
     for etype, enodes in zip(*gmsh.model.mesh.getElements(dim, entity)[::2]):
         name, _, _, n_nodes, _, n_corners = gmsh.model.mesh.getElementProperties(etype)
-        corners = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)[:, :n_corners]
-        yield name, node_order[np.searchsorted(node_tags, corners, sorter=node_order)]
+        nodes = np.asarray(enodes, dtype=np.int64).reshape(-1, n_nodes)
+        yield name, node_order[np.searchsorted(node_tags, nodes, sorter=node_order)], int(n_corners)
+
+
+def element_corners(gmsh, dim: int, entity: int, node_tags: np.ndarray, node_order: np.ndarray
+                    ) -> Iterator[tuple[str, np.ndarray]]:
+    """:func:`element_nodes` without the higher-order nodes: (gmsh's type name, corner nodes
+    (m, n_corners))."""
+    for name, nodes, n_corners in element_nodes(gmsh, dim, entity, node_tags, node_order):
+        yield name, nodes[:, :n_corners]
 
 
 def model_cells(gmsh, region_tags: Mapping[str, int] | None

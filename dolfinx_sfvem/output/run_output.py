@@ -155,22 +155,23 @@ def nodes_at(X: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 class PressureField:
-    """The contact pressure as a field of the output mesh, for the XDMF series: degree 1 on
-    ``mesh`` (``Discretization.dolfinx_mesh``), named :data:`PRESSURE_FIELD`; at the vertices that
-    are boundary nodes of the solids their nodal pressure (:attr:`ContactPressure.pressure`), 0
-    elsewhere (the degree-2 nodes between them are left out, as in the displacement's series).
+    """The contact pressure as a field of the output mesh, for the XDMF series: of ``degree`` (1, or
+    2 on a mesh of curved cells, whose XDMF fields have the geometry's degree) on ``mesh``
+    (``Discretization.dolfinx_mesh``), named :data:`PRESSURE_FIELD`; at the nodes that are boundary
+    nodes of the solids their nodal pressure (:attr:`ContactPressure.pressure`), 0 elsewhere (for
+    degree 1 the degree-2 nodes between them are left out, as in the displacement's series).
     The same for 2D boundaries and 3D surfaces: the vertices are matched to the nodes by
     reference position (:attr:`ContactPressure.X`), once per mesh.
 
     Attributes
     ----------
     function : dolfinx.fem.Function
-        The field (scalar, degree 1), set by :meth:`set`.
+        The field (scalar, of ``degree``), set by :meth:`set`.
     """
 
-    def __init__(self, mesh):
+    def __init__(self, mesh, degree: int = 1):
         import dolfinx.fem
-        self.function = dolfinx.fem.Function(_compat.scalar_function_space(mesh, 1), name=PRESSURE_FIELD)
+        self.function = dolfinx.fem.Function(_compat.scalar_function_space(mesh, degree), name=PRESSURE_FIELD)
         self._rows: np.ndarray | None = None          # the row of ContactPressure.X at each local dof
 
     def set(self, pressure: ContactPressure) -> "dolfinx.fem.Function":
@@ -290,8 +291,10 @@ class RunWriter:
         import dolfinx.fem
         self.disc, self.x = disc, x
         self.u_p2 = disc.output_function(x)
-        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(disc.dolfinx_mesh, 1), name="u")
-        self.pressure = PressureField(disc.dolfinx_mesh)
+        # XDMF writes fields at the geometry's degree: 1, or 2 on curved cells
+        degree = _compat.mesh_geometry_degree(disc.dolfinx_mesh)
+        self.u_p1 = dolfinx.fem.Function(_compat.vector_function_space(disc.dolfinx_mesh, degree), name="u")
+        self.pressure = PressureField(disc.dolfinx_mesh, degree)
         if self.meshes:
             self.xdmf_path = self.out / f"displacement_refined{self.meshes}.xdmf"
         if self.vtx is not None:

@@ -8,7 +8,8 @@ boundary surface of the solids of a tetrahedral or hexahedral mesh:
 - The *surface* is every face of a solid cell not shared with another solid cell (faces against
   the medium and the outside), oriented outwards, each face followed through its degree-2 nodes:
   a P2 triangle (3 vertices + 3 edge midpoints) as 4 flat sub-triangles, a Q2 quadrilateral
-  (4 vertices + 4 edge midpoints + centre) as 8.
+  (4 vertices + 4 edge midpoints + centre) as 8; on curved cells (degree-2 geometry) the edge and
+  face nodes are the geometry's, on the curved face, so the sub-triangles sample it.
 - Every surface node p gets a signed gap g(p) in the deformed configuration: if p lies inside a
   body (generalized winding number of that body's deformed surface; for p's own body, at least
   one full turn beyond the part of the surface p sits on), g(p) = -(distance to that body's
@@ -26,8 +27,9 @@ The geometry queries are libigl's (pinned in pyproject.toml): ``point_mesh_squar
 ``fast_winding_number`` (exact ``winding_number`` where it is close to a decision), evaluated only
 for bodies whose surfaces cross: without a crossing a body lies wholly inside or outside another
 and has no node inside itself. Depths inside the own body take their candidates from scipy's
-k-d tree. The surface is read from the mesh's arrays alone (points, cells, tags, cell type): the
-module needs nothing else of a ``CellMesh``. The own body's facing surfaces are found per
+k-d tree. The surface is read from the mesh's arrays (points, cells, tags, cell type) and, on
+curved cells, its points in the middle of edges and faces (``edge_midpoints``, ``face_centres``):
+the module needs nothing else of a ``CellMesh``. The own body's facing surfaces are found per
 *cluster* of nodes and of sub-triangles (grouped by normal direction and position): cluster pairs
 facing throughout are handed to libigl as one triangle set, pairs facing in part go through a
 compiled loop over their node-triangle pairs, and pairs that cannot face, or are farther than a
@@ -140,7 +142,9 @@ class SolidSurface(BoundaryNodes):
     ----------
     mesh
         A :class:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh` of tetrahedra or hexahedra (used: ``points``
-        (n, 3), ``cells``, ``tags``, ``cell_type``), identical on every rank.
+        (n, 3), ``cells``, ``tags``, ``cell_type``; where ``geometry_degree`` is 2, the curved
+        geometry's points in the middle of edges and quadrilateral faces, ``edge_midpoints`` and
+        ``face_centres``), identical on every rank.
     solid_tags
         Region tags of the solids (the others are third medium).
     midpoint_keys
@@ -183,14 +187,16 @@ class SolidSurface(BoundaryNodes):
         # the faces' nodes by key: vertices, edge midpoints, (quadrilaterals) centres
         a, b = faces, np.roll(faces, -1, axis=1)
         columns = [faces, np.asarray(midpoint_keys(a.ravel(), b.ravel()), dtype=np.int64).reshape(a.shape)]
-        positions = [points[faces], 0.5 * (points[a] + points[b])]
+        curved = getattr(mesh, "geometry_degree", 1) > 1
+        positions = [points[faces], mesh.edge_midpoints(a.ravel(), b.ravel()).reshape(a.shape + (3,)) if curved
+                     else 0.5 * (points[a] + points[b])]
         if k == 4:
             centre_keys = face_centre_keys or default_face_centre_keys(n)
             low = np.argmin(faces, axis=1)
             rows = np.arange(faces.shape[0])
             columns.append(np.asarray(centre_keys(faces[rows, low], faces[rows, (low + 2) % 4]),
                                       dtype=np.int64)[:, None])
-            positions.append(points[faces].mean(axis=1)[:, None])
+            positions.append((mesh.face_centres(faces) if curved else points[faces].mean(axis=1))[:, None])
         face_keys = np.concatenate(columns, axis=1)
         self.node_keys, first, face_nodes = np.unique(face_keys.ravel(), return_index=True, return_inverse=True)
         self.face_nodes = face_nodes.reshape(face_keys.shape).astype(np.int64)
