@@ -227,6 +227,13 @@ class LameSolution(_Cavity):
         """Deformed radius ``R + u_r(R)``."""
         return np.asarray(R, dtype=np.float64) + self.u_r(R)
 
+    def stretches(self, R: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """``lambda_r = 1 + u_r'`` and ``lambda_theta = 1 + u_r / R`` at reference radii R (any shape):
+        ``1 + A - m B / R^(m+1)`` and ``1 + A + B / R^(m+1)`` (m = hoop)."""
+        R = np.asarray(R, dtype=np.float64)
+        tail = self.B / R ** (self.hoop + 1)
+        return 1 + self.A - self.hoop * tail, 1 + self.A + tail
+
     @property
     def _volumetric(self) -> float:
         """``(m + 1) lambda + 2 mu``: the radial stress per unit of A."""
@@ -255,6 +262,44 @@ class LameSolution(_Cavity):
     def _cavity_change(self) -> float:
         """To first order in p: ``2 pi a u_r(a)`` (cylinder), ``4 pi a^2 u_r(a)`` (sphere)."""
         return (self.hoop + 1) * _CAVITY_MEASURE[self.hoop] * self.a ** self.hoop * self.inner_radius_change
+
+
+def radial_field(solution: LameSolution | RadialSolution
+                 ) -> tuple[Callable[[np.ndarray], np.ndarray], Callable[[np.ndarray], np.ndarray]]:
+    """The displacement of a radial ``solution`` in Cartesian components about the origin, for
+    :meth:`~dolfinx_sfvem.discretizations.discretization.Discretization.error_norms`:
+    ``u = (lambda_theta - 1) X`` and ``grad u = (lambda_theta - 1) I + (lambda_r - lambda_theta) e_r e_r``
+    (e_r = X / R), with the solution's :meth:`~RadialSolution.stretches` at R = ``|X|`` clipped to
+    [a, b] ([0, b] with a medium filling R < a): a discrete wall reaches a little beyond the exact
+    one (flat faces' chords inside R = a, curved faces' O(h^3) bulges), where the stretches of the
+    nearest radius extend u continuously.
+
+    Parameters
+    ----------
+    solution
+        The cylinder's (``hoop = 1``: points in the plane, d = 2) or the sphere's (``hoop = 2``:
+        d = 3), Lamé's or the finite-strain one.
+
+    Returns
+    -------
+    u_exact, grad_exact
+        ``u_exact(X)`` (d, n) and ``grad_exact(X)`` (d, d, n) for reference points X (d, n), R > 0.
+    """
+    d = solution.hoop + 1
+    lowest = 0.0 if getattr(solution, "filled", False) else solution.a
+
+    def u_exact(X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, dtype=np.float64)[:d]
+        _, lambda_theta = solution.stretches(np.clip(np.linalg.norm(X, axis=0), lowest, solution.b))
+        return (lambda_theta - 1) * X
+
+    def grad_exact(X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, dtype=np.float64)[:d]
+        R = np.linalg.norm(X, axis=0)
+        lambda_r, lambda_theta = solution.stretches(np.clip(R, lowest, solution.b))
+        e_r = X / R
+        return (lambda_theta - 1) * np.eye(d)[:, :, None] + (lambda_r - lambda_theta) * e_r[:, None] * e_r[None]
+    return u_exact, grad_exact
 
 
 def _lame(a: float, b: float, K: float, mu: float, p: float, hoop: int) -> LameSolution:

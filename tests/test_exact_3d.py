@@ -131,3 +131,22 @@ def test_hertz_sphere_against_hand_computed_cases():
     assert 2.0 / (math.pi * both.a ** 2) == pytest.approx(2 / 3 * both.p0, rel=1e-14)
     with pytest.raises(ValueError, match="nu1"):
         exact.hertz_sphere(1.0, 1.0, 1.0, 0.7)
+
+
+@pytest.mark.parametrize("which", ["lame sphere", "finite sphere", "lame cylinder"])
+def test_radial_field_is_the_radial_solution_in_cartesian_components(which):
+    """u of exact.radial_field is u_r(R) e_r, its gradient that of u (central differences)."""
+    solution = {"lame sphere": lambda: exact.lame_sphere(A, B, K, MU, 1e-3),
+                "finite sphere": lambda: exact.thick_sphere(A, B, K, MU, 0.2, follower=False),
+                "lame cylinder": lambda: exact.lame_cylinder(A, B, K, MU, 1e-3)}[which]()
+    u_exact, grad_exact = exact.radial_field(solution)
+    d = solution.hoop + 1
+    X = np.random.default_rng(4).uniform(0.3, 1.2, (d, 6)) * np.array([1.0, 1.3, 0.9][:d])[:, None]
+    R = np.linalg.norm(X, axis=0)
+    X = X * np.clip(R, A + 0.05, B - 0.05) / R                          # inside the wall
+    R = np.linalg.norm(X, axis=0)
+    assert np.allclose(u_exact(X), solution.u_r(R) * X / R, rtol=1e-12, atol=1e-15)
+    step = 1e-6
+    numeric = np.stack([(u_exact(X + step * e[:, None]) - u_exact(X - step * e[:, None])) / (2 * step)
+                        for e in np.eye(d)], axis=1)
+    assert np.allclose(grad_exact(X), numeric, rtol=1e-7, atol=1e-9)
