@@ -210,3 +210,43 @@ def test_contact_surface_samples_the_curved_faces():
         if name == "curved":
             assert on_sphere.sum() > np.isclose(np.linalg.norm(mesh.points, axis=1), A).sum()  # edge nodes too
     assert gaps["curved"] < gaps["flat"] / 3
+
+
+def _pressurized_sphere(comm: MPI.Comm) -> tuple[sf.ContactProblem, list[float]]:
+    """The 1/8 thick sphere of curved tetrahedra (h = 0.4) under a dead pressure of 1e-6 on R = a,
+    solved on ``comm``; with its relative L2 and H1 errors against Lamé and the load's recorded
+    work-conjugate displacement."""
+    from dolfinx_sfvem import exact
+    from dolfinx_sfvem.output.run_summary import RunSummary
+    bench = sf.meshes.thick_sphere(A, B, 0.4, order=2)
+    problem = sf.ContactProblem(bench.mesh, {"solid": sf.Hyperelastic(K=K, mu=MU)}, comm=comm, method="fem",
+                                verbose=False)
+    for axis in "xyz":
+        problem.fix(bench.marker(f"symmetry_{axis}"), components=axis, name=f"symmetry_{axis}")
+    problem.pressure(lambda x: np.linalg.norm(x, axis=0) <= A + 1e-9, 1e-6, follower=False, name="p")
+    run = RunSummary.from_dict(problem.solve(steps=1).summary)
+    assert run.converged
+    u_exact, grad_exact = exact.radial_field(exact.lame_sphere(A, B, K, MU, 1e-6))
+    zero = problem.disc.create_vector()
+    zero.set(0.0)
+    norms = [e / n for e, n in zip(problem.disc.error_norms(problem.x, u_exact, grad_exact),
+                                   problem.disc.error_norms(zero, u_exact, grad_exact))]
+    zero.destroy()
+    return problem, norms + [run.final_step.loads["p"]["displacement"]]
+
+
+@pytest.mark.mpi
+def test_curved_thick_sphere_on_all_ranks_agrees_with_one():
+    """The thick sphere of curved tetrahedra distributed over the ranks (2 under mpirun) gives the
+    one-rank answer: displacements at points inside curved cells near the inner sphere, the pressure's
+    recorded conjugate and the L2 and H1 errors against Lamé (5e-3 and 6e-2)."""
+    X = np.array([[1.0, 0.0, 0.0], [0.6, 0.5, 0.62], [0.2, 1.5, 0.9], [1.2, 1.2, 0.3]])
+    answers = []
+    for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
+        problem, numbers = _pressurized_sphere(comm)
+        assert problem.mesh.geometry_degree == 2
+        answers.append((problem.displacement_at(X), numbers))
+    (u_all, norms_all), (u_one, norms_one) = answers
+    assert u_all == pytest.approx(u_one, rel=1e-9, abs=1e-18)
+    assert norms_all == pytest.approx(norms_one, rel=1e-9)
+    assert 3e-3 < norms_all[0] < 7e-3 and norms_all[1] < 8e-2, norms_all
