@@ -485,15 +485,16 @@ class ContactProblem:
         return self._boundary_marker(names, name)
 
     def _boundary_marker(self, names: list[str], name: str) -> Marker:
-        """A marker true on the boundaries ``names`` of the mesh (ValueError naming an unknown one
-        and listing the mesh's)."""
+        """A marker true on the boundaries ``names`` of the mesh, on a degree-2 mesh their curved
+        facets' edge and face nodes included (ValueError naming an unknown one and listing the mesh's)."""
         boundaries = getattr(self.mesh, "boundary_names", {})
         unknown = [item for item in names if item not in boundaries]
         if unknown or not names:
             raise ValueError(f"{name!r}: {unknown[0] if unknown else names!r} is not a named boundary of the mesh "
                              f"(its boundaries: {sorted(boundaries) or 'none; meshes.read_gmsh names them'})")
         facets = np.concatenate([boundaries[item] for item in names])
-        return facet_marker(self.mesh.points, facets, "+".join(names))
+        curved = self.mesh.facet_nodes(facets) if getattr(self.mesh, "geometry_degree", 1) > 1 else None
+        return facet_marker(self.mesh.points, facets, "+".join(names), curved)
 
     def equilibrium(self) -> Equilibrium:
         """The balance R(u; λ) with the loads bound to the current discretization (collective;

@@ -166,6 +166,25 @@ def test_read_gmsh_second_order_tetrahedra(tmp_path):
     assert errors[1] > 1e-3 and errors[2] < 2e-5
 
 
+def test_named_curved_surface_holds_its_curved_edge_nodes():
+    """A named surface of a gmsh order-2 model, given by name to fix and pressure, selects every
+    node on it (vertices and the curved edge nodes, which lie off the flat faces through the
+    vertices) and no other; its faces are those the radius selects."""
+    from dolfinx_sfvem.physics.face_loads import loaded_facets
+    with sf.meshes.gmsh_session() as gmsh:
+        shell_model(gmsh, 0.5, 2)
+        mesh = sf.meshes.read_gmsh(None)
+    problem = sf.ContactProblem(mesh, {"wall": sf.Hyperelastic(K=K, mu=MU)}, method="fem", verbose=False)
+    X = problem.disc.x_nodes
+    on_sphere = np.flatnonzero(np.abs(np.linalg.norm(X, axis=1) - A) < 1e-9)
+    bc = problem.fix("inner", name="inner")
+    assert np.array_equal(problem.disc.locate_nodes(bc.marker), on_sphere)
+    assert len(on_sphere) > 2 * len(np.unique(mesh.boundary_names["inner"]))       # edge nodes included
+    by_name = loaded_facets(problem.disc, problem._where("inner", "p"), "p")
+    by_radius = loaded_facets(problem.disc, lambda x: np.linalg.norm(x, axis=0) <= A + 1e-9, "p")
+    assert np.array_equal(np.sort(by_name), np.sort(by_radius)) and len(by_name) > 0
+
+
 def test_curved_faces_area_and_volume_against_the_sphere():
     """With degree-2 geometry the forms of the face loads integrate over the curved faces: the inner
     sphere's area (∫ ds over the faces a pressure loads) and the wall's volume are within 1e-4 of

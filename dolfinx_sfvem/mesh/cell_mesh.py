@@ -485,6 +485,24 @@ class CellMesh:
         return self.node_points[self._lookup(keys, node[unique], edge_key(faces[:, 0], faces[:, 2], self.n_points),
                                              "face")]
 
+    def facet_nodes(self, facets: npt.ArrayLike) -> np.ndarray:
+        """The geometry's nodes (k, gdim) of the facets beyond their vertices: their edges' nodes
+        (:meth:`edge_midpoints`) and the centres of quadrilateral faces (:meth:`face_centres`); on a
+        degree-2 geometry these lie on the curved facets, off the flat ones through the vertices.
+
+        Parameters
+        ----------
+        facets : (m, 2 | 3 | 4) int
+            Vertex indices: edges (2D), triangles or quadrilaterals in cyclic order (3D).
+        """
+        facets = np.asarray(facets, dtype=np.int64)
+        k = facets.shape[1]
+        sides = facets[:, [0, 1]] if k == 2 else np.stack([facets, np.roll(facets, -1, axis=1)], axis=2).reshape(-1, 2)
+        nodes = [self.edge_midpoints(sides[:, 0], sides[:, 1])]
+        if k == 4:
+            nodes.append(self.face_centres(facets))
+        return np.concatenate(nodes)
+
     @staticmethod
     def _lookup(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray, what: str) -> np.ndarray:
         """``values`` at the sorted ``keys`` equal to ``wanted``; ValueError for a key not found."""

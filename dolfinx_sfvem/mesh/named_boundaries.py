@@ -94,7 +94,7 @@ def on_facets(x: npt.ArrayLike, pieces: npt.NDArray[np.float64], tol: float) -> 
     return selected
 
 
-def facet_marker(points: npt.ArrayLike, facets: npt.ArrayLike, label: str
+def facet_marker(points: npt.ArrayLike, facets: npt.ArrayLike, label: str, nodes: npt.ArrayLike | None = None
                  ) -> typing.Callable[[np.ndarray], np.ndarray]:
     """A marker ``f(x)`` ((d, n) -> (n,) bool) true on the ``facets`` (module docstring), named
     ``label`` (its ``__name__``, which summary.json records).
@@ -104,13 +104,22 @@ def facet_marker(points: npt.ArrayLike, facets: npt.ArrayLike, label: str
     points : (n, d) float
     facets : (m, 2 | 3 | 4) int
         Vertex indices into ``points``.
+    nodes : (k, d) float, optional
+        Further points the marker takes as on the facets (within its tolerance): the nodes of
+        curved facets off the flat ones through their vertices
+        (:meth:`~dolfinx_sfvem.mesh.cell_mesh.CellMesh.facet_nodes`).
     """
     pieces = facet_pieces(np.asarray(points, dtype=np.float64), np.asarray(facets, dtype=np.int64))
     corners = pieces.reshape(-1, pieces.shape[2])
     tol = RTOL * float(np.linalg.norm(np.ptp(corners, axis=0))) if len(corners) else 0.0
+    tree = cKDTree(np.asarray(nodes, dtype=np.float64)) if nodes is not None and len(nodes) else None
 
     def marker(x: np.ndarray) -> np.ndarray:
-        return on_facets(x, pieces, tol)
+        selected = on_facets(x, pieces, tol)
+        if tree is not None:
+            distance, _ = tree.query(np.asarray(x, dtype=np.float64)[:pieces.shape[2]].T)
+            selected |= distance <= tol
+        return selected
     marker.__name__ = label
     return marker
 
