@@ -91,9 +91,21 @@ def facet_normal_axes(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray
     return np.where(flat.sum(axis=1) == 1, np.argmax(flat, axis=1), -1)
 
 
+#: vertices of a facet of each cell type (a facet's geometry nodes list them first)
+_FACET_VERTICES = {"triangle": 2, "quadrilateral": 2, "tetrahedron": 3, "hexahedron": 4}
+
+
+def facet_vertex_centres(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray:
+    """The means (m, 3) of the vertices of the local ``facets`` (m,): on the flat facet through them,
+    also on a degree-2 mesh (where DOLFINx's facet midpoints average the curved edge nodes too)."""
+    nodes = _compat.entity_geometry_nodes(mesh, mesh.topology.dim - 1, np.asarray(facets, dtype=np.int32))
+    corners = nodes[:, :_FACET_VERTICES[mesh.topology.cell_type.name]]
+    return mesh.geometry.x[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+
+
 def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
     """The local boundary facets of ``disc.dolfinx_mesh`` that ``where`` selects (collective): a marker
-    of coordinates (3, n) -> (n,) bool (the facets whose vertices and midpoint it selects), or
+    of coordinates (3, n) -> (n,) bool (the facets whose geometry nodes and vertices' mean it selects), or
     region tags (the mesh-boundary facets of their cells).
 
     Raises
@@ -107,12 +119,10 @@ def loaded_facets(disc: Discretization, where, name: str) -> np.ndarray:
     if callable(where):
         def marked(facets):
             facets = np.asarray(facets, dtype=np.int32)
-            mid = dolfinx.mesh.compute_midpoints(mesh, fdim, facets)
-            return facets[np.asarray(where(mid.T[:3]), dtype=bool).reshape(-1)]
+            return facets[np.asarray(where(facet_vertex_centres(mesh, facets).T), dtype=bool).reshape(-1)]
         every = of_owned_cells(mesh, marked(dolfinx.mesh.locate_entities(mesh, fdim, lambda x: where(x[:3]))))
         inner = np.setdiff1d(every, boundary)
-        found = [tuple(np.round(dolfinx.mesh.compute_midpoints(mesh, fdim, inner[:1])[0], 12) + 0.0)] if inner.size \
-            else []
+        found = [tuple(np.round(facet_vertex_centres(mesh, inner[:1])[0], 12) + 0.0)] if inner.size else []
         found = [f for part in disc.comm.allgather(found) for f in part]
         if found:
             raise ValueError(f"load {name!r}: the marker selects the face with midpoint {found[0]}, which is not on "
