@@ -87,6 +87,14 @@ FIGURES_OF: dict[str, list[tuple[str, str]]] = {
         ("hertz3d-core0.03-deformed.png", "The solids at the full load (medium hidden): the mesh's 0.03 core under "
                                           "the sphere"),
     ],
+    "user_mesh3d": [
+        ("user_mesh3d-curves.png", "The default run (2,748 curved tetrahedra, 14,043 unknowns): the plate's force on "
+                                   "the eighth model and the smallest gap between the solids against the plate's "
+                                   "travel; the gaps close through the medium, then the ring is squeezed"),
+        ("user_mesh3d-clip.png", "At the full load, cut normal to x: the ring flattened under the plate, the medium "
+                                 "squeezed between them (smallest gap 2.3e-3)"),
+        ("user_mesh3d-pressure.png", "The contact pressure on the ring's top at the full load, seen from above"),
+    ],
     "pneunet3d": [
         ("pneunet3d-curves.png", "2 chambers, Q2 hexahedra, h = 2: tip angle, smallest gap and mean chamber volume "
                                  "change against the chamber pressure (dotted: first contact)"),
