@@ -40,8 +40,8 @@ class AssemblyInfo:
         Total stored energy ∫ Ψ dΩ (Eq. 46).
     min_J : float
         Smallest J = det F over all quadrature points.
-    min_J_polygon : int
-        Global index of the polygon (FEM: cell) where it occurs.
+    min_J_cell : int
+        Global index of the cell (polygon, polyhedron or FEM cell) where it occurs.
     min_J_tag : int
         Its region tag.
     folded : int
@@ -55,7 +55,7 @@ class AssemblyInfo:
     """
     energy: float
     min_J: float
-    min_J_polygon: int
+    min_J_cell: int
     min_J_tag: int
     folded: int = 0
     folded_polygon: int = -1
