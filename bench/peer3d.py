@@ -17,8 +17,14 @@ dolfiny is optional: ``--dolfiny DIR`` (its ``demo/tmc/3D`` folder) with ``--dol
 (a Python with dolfiny and DOLFINx 0.11, e.g. the 0.11 venv after ``pip install --no-deps
 dolfiny==0.10.0``). Times mean something only on an otherwise idle machine.
 
+Variants of the peer's demo, to tell its element from its medium (:func:`peer_variant`):
+``--peer-degree K`` (Lagrange degree of the displacement; its output file is then not written),
+``--peer-quadrature-degree Q`` (the degree of its one rule), ``--peer-no-aux`` (the auxiliary field
+held at p = 0: its rotation regularization is then the local penalty beta1/2 |skew(F)|², which is
+``ThirdMedium(beta1=beta1/4)`` here, its skew being half ours).
+
 Usage: ``python bench/peer3d.py [--cases cbox-line hertz-deep] [--dolfiny DIR --dolfiny-python PY]
-[--ours-option=--alpha-r=100 ...]``; writes bench/peer3d.json (a case run again replaces its row)
+[--ours-option=--alpha-r=100 ...] [--peer-degree 2 --peer-quadrature-degree 2 --peer-no-aux]``; writes bench/peer3d.json (a case run again replaces its row)
 and bench/peer3d.md.
 """
 from __future__ import annotations
@@ -145,16 +151,63 @@ _RUN_PEER = ("import runpy, sys\ntry:\n    import dolfinx_solver  # noqa: F401\n
              "sys.argv = sys.argv[1:]\nrunpy.run_path(sys.argv[0], run_name='__main__')")
 
 
-def peer(name: str, demos: pathlib.Path, python: str) -> Run:
-    """dolfiny's demo of case ``name`` from the folder ``demos``, run by ``python`` in a scratch
-    directory (the demo writes its outputs beside it)."""
+@dataclasses.dataclass(frozen=True)
+class PeerVariant:
+    """A change to the peer's demo: None / False keeps what the demo has."""
+    degree: int | None = None
+    quadrature_degree: int | None = None
+    no_aux: bool = False
+
+    @property
+    def label(self) -> str:
+        """The row's options: empty for the demo as it is."""
+        return ", ".join([f"P{self.degree}/Q{self.degree}"] * (self.degree is not None)
+                         + [f"quadrature degree {self.quadrature_degree}"] * (self.quadrature_degree is not None)
+                         + ["p = 0"] * self.no_aux)
+
+
+def _replace_once(source: str, pattern: str, replacement: str) -> str:
+    """``source`` with the one match of the regular expression ``pattern`` replaced (ValueError
+    when the demo does not have exactly one: it changed, and the variant would be wrong)."""
+    new, count = re.subn(pattern, replacement, source, flags=re.MULTILINE)
+    if count != 1:
+        raise ValueError(f"the peer's demo has {count} matches of {pattern!r}, not 1")
+    return new
+
+
+def peer_variant(source: str, variant: PeerVariant) -> str:
+    """The peer's demo ``source`` changed as ``variant`` says: the displacement's degree, the
+    quadrature degree of its measure, the auxiliary field p held at 0 by a Dirichlet condition on
+    all its dofs. A degree other than 1 also drops the demo's VTX output (written for degree 1)."""
+    if variant.degree is not None:
+        source = _replace_once(source, r'fem\.functionspace\(mesh, \("Lagrange", 1, \(tdim,\)\)\)',
+                               f'fem.functionspace(mesh, ("Lagrange", {variant.degree}, (tdim,)))')
+        if variant.degree != 1:
+            source = _replace_once(source, r"^ofile = VTXWriter\(.*\)$",
+                                   "ofile = type('NoOutput', (), {'write': lambda *a: None, 'close': lambda *a: None})()")
+    if variant.quadrature_degree is not None:
+        source = _replace_once(source, r'metadata = \{"quadrature_degree": \d+\}',
+                               f'metadata = {{"quadrature_degree": {variant.quadrature_degree}}}')
+    if variant.no_aux:
+        source = _replace_once(source, r"^(bcs = \[.*\])$",
+                               "\\1\nbcs.append(dolfinx.fem.dirichletbc(np.zeros(3), np.arange(P.dofmap.index_map.size_local "
+                               "+ P.dofmap.index_map.num_ghosts, dtype=np.int32), P))")
+    return source
+
+
+def peer(name: str, demos: pathlib.Path, python: str, variant: PeerVariant = PeerVariant()) -> Run:
+    """dolfiny's demo of case ``name`` from the folder ``demos``, changed as ``variant`` says, run by
+    ``python`` in a scratch directory (the demo writes its outputs beside it)."""
     case = CASES[name]
     with tempfile.TemporaryDirectory() as scratch:
         for script in demos.glob("*.py"):                      # the Hertz demo imports its mesh module
-            (pathlib.Path(scratch) / script.name).write_bytes(script.read_bytes())
+            source = script.read_text()
+            if script.name == case.peer_script:
+                source = peer_variant(source, variant)
+            (pathlib.Path(scratch) / script.name).write_text(source)
         proc, cpu, memory = run_measured([python, "-c", _RUN_PEER, case.peer_script], pathlib.Path(scratch))
     load, iterations, reason = parse_peer(proc.stdout, case.peer_steps)
-    return Run(name, "dolfiny", "", load, iterations, None, cpu, memory, reason)
+    return Run(name, "dolfiny", variant.label, load, iterations, None, cpu, memory, reason)
 
 
 def table(rows: list[dict]) -> str:
@@ -177,26 +230,34 @@ def main() -> None:
     p.add_argument("--dolfiny-python", default=None, help="a Python with dolfiny and DOLFINx 0.11")
     p.add_argument("--ours-option", action="append", default=[],
                    help="an option for our demos, as --ours-option=--alpha-r=100 (repeatable)")
+    p.add_argument("--peer-degree", type=int, default=None, help="the peer's displacement degree (default its own, 1)")
+    p.add_argument("--peer-quadrature-degree", type=int, default=None, help="the peer's quadrature degree")
+    p.add_argument("--peer-no-aux", action="store_true", help="the peer's auxiliary field held at p = 0")
+    p.add_argument("--peer-only", action="store_true", help="run the peer's demo only, not ours")
     p.add_argument("--results", type=pathlib.Path, default=ROOT / "bench")
     p.add_argument("--report", action="store_true", help="only write peer3d.md again from peer3d.json")
     args = p.parse_args()
     if (args.dolfiny is None) != (args.dolfiny_python is None):
         p.error("give --dolfiny and --dolfiny-python together")
+    if args.peer_only and args.dolfiny is None:
+        p.error("--peer-only needs --dolfiny")
     path = args.results / "peer3d.json"
     rows = json.loads(path.read_text()) if path.exists() else []
     today = datetime.date.today().isoformat()
     extra = [token for option in args.ours_option for token in option.split("=", 1)]
     for name in [] if args.report else args.cases:
-        runs = [peer(name, args.dolfiny, args.dolfiny_python)] if args.dolfiny is not None else []
-        peer_load = runs[0].load if runs else next((r["load"] for r in rows if (r["case"], r["code"]) == (name, "dolfiny")),
-                                                   None)
-        runs.append(ours(name, extra, peer_load))
+        variant = PeerVariant(args.peer_degree, args.peer_quadrature_degree, args.peer_no_aux)
+        runs = [peer(name, args.dolfiny, args.dolfiny_python, variant)] if args.dolfiny is not None else []
+        if not args.peer_only:
+            peer_load = runs[0].load if runs and not variant.label else \
+                next((r["load"] for r in rows if (r["case"], r["code"], r["options"]) == (name, "dolfiny", "")), None)
+            runs.append(ours(name, extra, peer_load))
         for run in runs:
             row = {**dataclasses.asdict(run), "date": today}
             rows = [r for r in rows if (r["case"], r["code"], r["options"]) != (run.case, run.code, run.options)]
             rows.append(row)
             print(json.dumps(row), flush=True)
-    peers = {r["case"]: r["load"] for r in rows if r["code"] == "dolfiny"}
+    peers = {r["case"]: r["load"] for r in rows if r["code"] == "dolfiny" and not r["options"]}
     path.write_text(json.dumps(rows, indent=1) + "\n")
     (args.results / "peer3d.md").write_text(
         "# Our 3D benchmarks beside dolfiny's demos\n\n"

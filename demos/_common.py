@@ -11,8 +11,8 @@ as many unknowns), ``--steps`` (the first load-factor increment is 1/steps), ``-
 ``--min-increment``, ``--fixed-increments``, ``--no-predictor`` (the load stepping of
 :class:`~dolfinx_sfvem.path_following.stepping.LoadStepping`), ``--out``, ``--mesh`` (mesh variant), ``--h`` (mesh size),
 ``--gamma``, ``--alpha-r``, ``--regularization``, ``--beta`` (exp(-beta J) scaling of the
-regularization, off unless given), ``--medium-quadrature`` (gauss, or lobatto: the FEM integrates
-the medium at its Q2 nodes), ``--gamma-start`` (continuation in gamma from this value,
+regularization, off unless given), ``--medium-quadrature`` (gauss; lobatto: the FEM integrates
+the medium at its Q2 nodes; reduced: at the degree-2 Gauss points of its P2 simplices), ``--gamma-start`` (continuation in gamma from this value,
 :mod:`dolfinx_sfvem.path_following.gamma_continuation`), ``--quiet``, ``--resume DIR`` (continue the stopped run
 whose outputs are in DIR from its last converged step; give the same options as that run), ``--adapt [J]``
 (SFVEM: refine the medium during the path where J < J, default 0.8, with ``--adapt-levels`` and
@@ -146,9 +146,10 @@ def parser(name: str, description: str, *, steps: int = 50, meshes: typing.Seque
                    help="weight of the medium's skew penalty beta1/2 |w(F)|^2, not scaled by gamma (the local part of "
                         "Wriggers et al. 2025's rotation regularization; docs/guide/medium.md; default: none)")
     p.add_argument("--medium-quadrature", choices=QUADRATURES, default=QUADRATURES[0],
-                   help="where the medium's energy is integrated: its Gauss points, or 'lobatto': the Gauss-Lobatto "
-                        "points, which are the nodes of Q2 cells (--method fem on quadrilaterals or hexahedra only; "
-                        "docs/guide/medium.md; default %(default)s)")
+                   help="where the medium's energy is integrated: its Gauss points; 'lobatto': the Gauss-Lobatto "
+                        "points, which are the nodes of Q2 cells (--method fem on quadrilaterals or hexahedra only); "
+                        "'reduced': the degree-2 Gauss points of P2 triangles and tetrahedra (--method fem only) "
+                        "(docs/guide/medium.md; default %(default)s)")
     p.add_argument("--gamma-start", type=positive_float, default=None, metavar="G0",
                    help="continuation in gamma: the medium starts the path at G0 and its gamma falls "
                         "log-linearly with the load factor to --gamma at the full load (e.g. 1e-5 for "

@@ -64,6 +64,9 @@ Commands
     python3 demos/hertz3d.py --h-core 0.03 --out out/hertz3d-core0.03   # the finest documented run
     # the paper's gamma on a layer half as thick, coarse mesh: full load, peak and radius within 1 %
     python3 demos/hertz3d.py --h 0.2 --h-core 0.1 --gap 0.05 --gamma 1e-6 --regularization huhu_lulu --out out/hertz3d-g6
+    # dolfiny's deep Hertz (indentation 0.5, gamma 1e-6) with the peer's skew penalty: to 0.86 in about an hour
+    python3 demos/hertz3d.py --method fem --gamma 1e-6 --indent 0.5 --h 0.2 --h-far 0.2 --h-core 0 --steps 60 \
+        --beta1 0.25 --medium-quadrature reduced --out out/hertz3d-deep
 
 Measured
 --------

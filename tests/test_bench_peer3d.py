@@ -1,10 +1,12 @@
-"""bench/peer3d.py's readings of a run, from outputs made up here (no solve)."""
+"""bench/peer3d.py's readings of a run and its variants of the peer's demo, from texts made up here (no solve)."""
 from __future__ import annotations
 
 import json
 import pathlib
 import subprocess
 import sys
+
+import pytest
 
 import peer3d as bench
 
@@ -53,3 +55,30 @@ def test_each_run_is_measured_alone(tmp_path):
     assert code_large == code_small == 0 and out_large == "done\n" and out_small == "small\n"
     assert memory_large - memory_small > 0.5, (memory_large, memory_small)   # most of the 0.78 GiB
     assert 0 < cpu_small < cpu_large + 1.0
+
+
+#: the lines of the peer's demos that its variants change, and one they keep
+PEER_DEMO = '''metadata = {"quadrature_degree": 1} # one quadrature point
+V = fem.functionspace(mesh, ("Lagrange", 1, (tdim,))) # displacement
+P = fem.functionspace(third_medium_mesh, ("Lagrange", 1, (3,)))
+bcs = [bc_bottom, bc_x_symm]
+ofile = VTXWriter(comm, f"{name}/{name}.bp", [u, tm_func])
+'''
+
+
+def test_a_peer_variant_changes_the_element_the_rule_and_the_auxiliary_field():
+    as_is = bench.peer_variant(PEER_DEMO, bench.PeerVariant())
+    assert as_is == PEER_DEMO and bench.PeerVariant().label == ""
+    variant = bench.PeerVariant(degree=2, quadrature_degree=4, no_aux=True)
+    changed = bench.peer_variant(PEER_DEMO, variant).splitlines()
+    assert changed[0].startswith('metadata = {"quadrature_degree": 4}')
+    assert changed[1].startswith('V = fem.functionspace(mesh, ("Lagrange", 2, (tdim,)))')
+    assert changed[2] == PEER_DEMO.splitlines()[2]                            # p stays P1
+    assert changed[3] == "bcs = [bc_bottom, bc_x_symm]" and "dirichletbc(np.zeros(3)" in changed[4]
+    assert "VTXWriter" not in changed[5] and "NoOutput" in changed[5]
+    assert variant.label == "P2/Q2, quadrature degree 4, p = 0"
+
+
+def test_a_peer_variant_refuses_a_demo_it_does_not_recognise():
+    with pytest.raises(ValueError, match="0 matches"):
+        bench.peer_variant(PEER_DEMO.replace("Lagrange", "CG"), bench.PeerVariant(degree=2))

@@ -1,7 +1,8 @@
 """Curved (degree-2) geometry: the FEM's second gradient on curved cells against exact Hessians,
 a homogeneous stretch exact on them (from a CellMesh and from a DOLFINx mesh), gmsh's second order
 read, curved faces' areas and volumes against the exact sphere, the surface the contact checks
-sample, the SFVEM's one-line note, and curved cells that cannot be used named."""
+sample, the SFVEM's one-line note, curved cells that cannot be used named, and nearly tangled ones
+warned of."""
 import math
 
 import numpy as np
@@ -127,6 +128,24 @@ def test_curved_cells_that_cannot_be_used_are_named():
         CellMesh(np.zeros((20, 3)), [np.arange(20)], [1], "hexahedron")
     mirrored = CellMesh(nodes, [[0, 2, 1, 3, 5, 4, 6, 7, 9, 8]], [1], "tetrahedron")
     assert np.array_equal(mirrored.nodes[0], np.arange(10)) and mirrored.volumes[0] == pytest.approx(1 / 6)
+
+
+def test_nearly_tangled_curved_cells_are_named_in_a_warning(caplog):
+    """Edge (0, 1)'s node moved by t (0, 1, 1): the determinant is 1 - 8 t at the node's worst
+    point, zero at t = 1/8; at t = 0.12 the cell is valid with a ratio of 0.04 (warned), at 0.1
+    0.2 (not)."""
+    nodes = reference_nodes("tetrahedron", 2)
+    for t, warned in ((0.12, True), (0.1, False)):
+        bent = nodes.copy()
+        bent[9] += t * np.array([0.0, 1.0, 1.0])
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="dolfinx_sfvem.mesh.cell_mesh"):
+            CellMesh(bent, [np.arange(10)], [1], "tetrahedron")
+        messages = [r.getMessage() for r in caplog.records]
+        assert bool(messages) == warned, messages
+        if warned:
+            assert "1 curved tetrahedron(s) nearly tangled" in messages[0]
+            assert "tetrahedron 0 varies by a factor 25" in messages[0]
 
 
 def shell_model(gmsh, h: float, order: int) -> None:

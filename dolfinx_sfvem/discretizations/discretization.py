@@ -40,8 +40,8 @@ class AssemblyInfo:
         Total stored energy ∫ Ψ dΩ (Eq. 46).
     min_J : float
         Smallest J = det F over all quadrature points.
-    min_J_polygon : int
-        Global index of the polygon (FEM: cell) where it occurs.
+    min_J_cell : int
+        Global index of the cell (polygon, polyhedron or FEM cell) where it occurs.
     min_J_tag : int
         Its region tag.
     folded : int
@@ -55,7 +55,7 @@ class AssemblyInfo:
     """
     energy: float
     min_J: float
-    min_J_polygon: int
+    min_J_cell: int
     min_J_tag: int
     folded: int = 0
     folded_polygon: int = -1
@@ -67,10 +67,11 @@ class AssemblyInfo:
         return self.min_J > 0.0 and self.folded == 0 and bool(np.isfinite(self.energy))
 
 
-#: why the SFVEM refuses :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` "lobatto" (the words after
-#: "is not available" in :func:`check_materials`' message)
+#: why the SFVEM refuses :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` "lobatto" and "reduced" (the
+#: words after "is not available" in :func:`check_materials`' message)
 SFVEM_NO_LOBATTO = ("with the SFVEM (method='vem'), which integrates its projections with its own polygon and "
-                    "polyhedron rules; the Gauss-Lobatto rule at the nodes is an option of method='fem' on Q2 cells")
+                    "polyhedron rules; the Gauss-Lobatto rule at the nodes is an option of method='fem' on Q2 cells, "
+                    "the reduced rule one of method='fem' on P2 triangles and tetrahedra")
 
 
 def check_materials(tags: np.ndarray, materials: typing.Mapping[int, Energy],

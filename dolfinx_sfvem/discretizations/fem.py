@@ -35,7 +35,9 @@ the rule is not exact). A region whose energy asks for
 ``quadrature="lobatto"`` (:attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature`) is integrated
 with the Gauss-Lobatto rule :data:`LOBATTO_RULE` instead, whose points are the Q2 nodes
 (quadrilaterals and hexahedra only): ψ and ln J are then evaluated at the cell's corners, where a
-squeezed cell turns over first, and J > 0 there is what the guard asks of that region.
+squeezed cell turns over first, and J > 0 there is what the guard asks of that region. A region
+whose energy asks for ``quadrature="reduced"`` is integrated at degree :data:`REDUCED_DEGREE` (P2
+triangles and tetrahedra only), the lowest rule exact for the linear-elastic stiffness.
 
 The second gradient is cell-wise: a field that kinks along an element edge carries no
 regularization energy there, so in strong compression the FEM medium can fold along element
@@ -85,6 +87,10 @@ ERROR_QUADRATURE_DEGREE = 8
 LOBATTO_RULE = ("GLL", 3)
 #: the cells that have :data:`LOBATTO_RULE`
 LOBATTO_CELLS = ("quadrilateral", "hexahedron")
+#: degree of the Gauss rule of the energies with ``quadrature="reduced"`` on P2 simplices: the
+#: linear-elastic stiffness (gradients of degree 1, their products of degree 2) exactly, 3 points
+#: per triangle, 4 per tetrahedron
+REDUCED_DEGREE = 2
 
 #: cell type -> the vertices (DOLFINx's local numbering) of the reference edges that carry the
 #: degree-2 dofs n_vertices + k (a triangle's dof 3 + k on the edge opposite vertex k; a Q2
@@ -200,10 +206,12 @@ class LagrangeDiscretization(Discretization):
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
         if _cell_type(mesh) in LOBATTO_CELLS:
-            check_materials(tags, materials)
+            check_materials(tags, materials, ("gauss", "lobatto"), f"on Q2 {_cell_type(mesh)}s: the reduced rule "
+                                                                   "is that of P2 triangles and tetrahedra")
         else:
-            check_materials(tags, materials, ("gauss",), f"on P2 {_cell_type(mesh)}s: the Gauss-Lobatto rule at the "
-                                                         "nodes is that of Q2 quadrilaterals and hexahedra")
+            check_materials(tags, materials, ("gauss", "reduced"), f"on P2 {_cell_type(mesh)}s: the Gauss-Lobatto "
+                                                                   "rule at the nodes is that of Q2 quadrilaterals "
+                                                                   "and hexahedra")
         if tdim == 2:
             self._output_mesh = PolygonMesh(points[:n_vertex_points], cells[:, _compat.COUNTER_CLOCKWISE[n_vertices]],
                                             tags, insert_hanging_nodes=False)
@@ -255,8 +263,11 @@ class LagrangeDiscretization(Discretization):
 
     def _rule(self, energy: Energy) -> tuple[str, int]:
         """(FFCx's rule name, degree) of the quadrature of a region with ``energy``: basix's default
-        rule of :attr:`quadrature_degree`, or :data:`LOBATTO_RULE` for ``quadrature="lobatto"``."""
-        return LOBATTO_RULE if energy.quadrature == "lobatto" else ("default", self.quadrature_degree)
+        rule of :attr:`quadrature_degree`, :data:`LOBATTO_RULE` for ``quadrature="lobatto"``, the
+        default rule of :data:`REDUCED_DEGREE` for ``quadrature="reduced"``."""
+        if energy.quadrature == "lobatto":
+            return LOBATTO_RULE
+        return "default", REDUCED_DEGREE if energy.quadrature == "reduced" else self.quadrature_degree
 
     def _region_dx(self, cell_tags, tag: int) -> ufl.Measure:
         """The measure of region ``tag`` with its energy's rule (:meth:`_rule`)."""

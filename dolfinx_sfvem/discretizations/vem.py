@@ -48,7 +48,7 @@ class _Region:
     tag: int
     energy: Energy
     kernels: EnergyKernels
-    polygons: np.ndarray     # local polygon indices (int64)
+    cells: np.ndarray        # local cell (polygon or polyhedron) indices (int64)
     term: EnergyTerm | None = None
 
     @property
@@ -63,7 +63,7 @@ class _AreaTerm:
     exact for any nodal displacement, where the projected gradient's ∫ det Π⁰_l∇u is not."""
     tag: int
     energy: Energy
-    polygons: np.ndarray     # local polygon indices (int64)
+    cells: np.ndarray        # local cell (polygon or polyhedron) indices (int64)
     term: EnergyTerm
 
     @property
@@ -104,7 +104,7 @@ class SFVEMDiscretization(OnSFVEMNodes):
         nd = np.diff(space.dof_offsets)
         nphi = np.full(nd.size, 2, dtype=np.int64)       # rows of Φ: ∇φ, and ∇∇φ where Ψ uses G
         for reg in self.regions:
-            nphi[reg.polygons] = 6 if reg.kernels.uses_gradient else 2
+            nphi[reg.cells] = 6 if reg.kernels.uses_gradient else 2
         phi_off = np.concatenate([[0], np.cumsum(nphi * nd * np.diff(space.q_offsets))]).astype(np.int64)
         Phi = basis_derivative_tables(space.dof_offsets, proj.l, proj.centroid, proj.diameter,
                                       proj.Pi_m_offsets, proj.Pi_m, space.q_offsets, space.x_q, nphi, phi_off)
@@ -122,7 +122,7 @@ class SFVEMDiscretization(OnSFVEMNodes):
         self._loop = space.dofs[first + k // 2 + (k % 2) * np.repeat(N, 2 * N)].astype(np.int64)
         self._solid = np.zeros(space.polygons.size, dtype=bool)
         for reg in self.regions:
-            self._solid[reg.polygons] = not reg.energy.is_medium
+            self._solid[reg.cells] = not reg.energy.is_medium
         self.element_loops = (self._loop_offsets, self._loop, space.polygons)
 
     # ------------------------------------------------------------------ PETSc objects
@@ -162,13 +162,13 @@ class SFVEMDiscretization(OnSFVEMNodes):
         """R += ∂/∂ũ of one region's or term's energy (Eq. 52) at the nodal u
         (:meth:`OnSFVEMNodes._internal_force`)."""
         if isinstance(reg, _AreaTerm):
-            stats[0] -= reg.params["p"] * area_force_loop(reg.polygons, self.space.dof_offsets, self.space.dofs,
+            stats[0] -= reg.params["p"] * area_force_loop(reg.cells, self.space.dof_offsets, self.space.dofs,
                                                           self.space.x_nodes, u, -reg.params["p"], R)
             return
         k = reg.kernels
         P_at, T_at = _residual_at(k)
         c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
-        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.polygons, self._tables,
+        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, k.uses_gradient, reg.cells, self._tables,
                       u, R, stats)
 
     def _gather_info(self, stats: np.ndarray, folded: np.ndarray, kinked: np.ndarray) -> AssemblyInfo:
@@ -189,13 +189,13 @@ class SFVEMDiscretization(OnSFVEMNodes):
             u = xl.array_r.reshape(-1, 2)
             for reg in self.regions + self.terms:
                 if isinstance(reg, _AreaTerm):
-                    area_tangent_loop(reg.polygons, self.space.dof_offsets, -reg.params["p"], values, self._coo_off)
+                    area_tangent_loop(reg.cells, self.space.dof_offsets, -reg.params["p"], values, self._coo_off)
                     continue
                 k = reg.kernels
                 D_at, A_at, B_at = _tangent_at(k)
                 c = k.pack_constants(reg.params)
                 tangent_loop(k.tangent, c, k.F_offset, k.G_offset, D_at, A_at, B_at, k.uses_gradient,
-                             reg.polygons, self._tables, u, values, self._coo_off, reg.term is not None)
+                             reg.cells, self._tables, u, values, self._coo_off, reg.term is not None)
         _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
         A.assemble()
 
@@ -205,8 +205,8 @@ class SFVEMDiscretization(OnSFVEMNodes):
         region's basis tables, or a :class:`VolumeWork` term −p ∫ (J − 1) dΩ exactly, from the area
         enclosed by the region's deformed boundary traces (:class:`_AreaTerm`)."""
         if isinstance(energy, VolumeWork):
-            return _AreaTerm(region.tag, energy, region.polygons, term)
-        return _Region(region.tag, energy, compile_kernels(energy, self.comm), region.polygons, term)
+            return _AreaTerm(region.tag, energy, region.cells, term)
+        return _Region(region.tag, energy, compile_kernels(energy, self.comm), region.cells, term)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
@@ -326,7 +326,7 @@ class SFVEMDiscretization(OnSFVEMNodes):
         with x.localForm() as xl:
             u = xl.array_r.reshape(-1, 2)
             for reg in self.regions:
-                on = np.flatnonzero(np.isin(polygon, reg.polygons))
+                on = np.flatnonzero(np.isin(polygon, reg.cells))
                 k = reg.kernels
                 F_on, P_on = np.empty((on.size, 2, 2)), np.empty((on.size, 2, 2))
                 first_piola_at(k.residual, k.pack_constants(reg.params), k.F_offset, k.G_offset, _residual_at(k)[0],

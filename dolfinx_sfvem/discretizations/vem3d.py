@@ -52,7 +52,7 @@ FACE_QUADRATURE_DEGREE = 4
 
 @dataclass
 class _CavityTerm(_AreaTerm):
-    """The 3D form of the polygons' :class:`_AreaTerm` (``polygons``: the region's local polyhedra):
+    """The 3D form of the polygons' :class:`_AreaTerm` (``cells``: the region's local polyhedra):
     −p ∫ (J − 1) dΩ as −p ΔV, the volume swept by the region's faces
     (:mod:`~dolfinx_sfvem.physics.enclosed_volume`), exact on the face projections, where the projected
     gradient's ∫ det Π⁰_l∇u would depend on interior DOFs."""
@@ -107,7 +107,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         nd = np.diff(space.dof_offsets)
         nphi = np.full(nd.size, 3, dtype=np.int64)          # rows of the table: grad phi, and grad grad phi
         for reg in self.regions:
-            nphi[reg.polygons] = 12 if reg.kernels.uses_gradient else 3
+            nphi[reg.cells] = 12 if reg.kernels.uses_gradient else 3
         phi_off = np.concatenate([[0], np.cumsum(nd * np.diff(q_off) * nphi)]).astype(np.int64)
         Phi = basis_tables(space.dof_offsets, q_off, self.x_q, proj.l, proj.centroid, proj.diameter,
                            proj.Pi_m_offsets, proj.Pi_m, nphi, phi_off)
@@ -151,7 +151,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         k = reg.kernels
         P_at, T_at = _residual_at(k)
         c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
-        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, reg.polygons, self._tables, u, R, stats)
+        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, reg.cells, self._tables, u, R, stats)
 
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """Tangent (Eq. 56) at x into A, energy terms included, constraints not applied."""
@@ -164,7 +164,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
                 k = reg.kernels
                 D_at, A_at, B_at = _tangent_at(k)
                 tangent_loop(k.tangent, k.pack_constants(reg.params), k.F_offset, k.G_offset, D_at, A_at, B_at,
-                             reg.polygons, self._tables, u, values, self._coo_off, reg.term is not None)
+                             reg.cells, self._tables, u, values, self._coo_off, reg.term is not None)
             _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
             A.assemble()
             for reg in self.terms:
@@ -177,8 +177,8 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         region's quadrature points with Π⁰_l∇u, or a :class:`VolumeWork` term −p ∫ (J − 1) dΩ as
         −p ΔV from the region's faces (:class:`_CavityTerm`)."""
         if isinstance(energy, VolumeWork):
-            return _CavityTerm(region.tag, energy, region.polygons, term, EnclosedVolume(self, region.tag))
-        return _Region(region.tag, energy, compile_kernels(energy, self.comm, dim=3), region.polygons, term)
+            return _CavityTerm(region.tag, energy, region.cells, term, EnclosedVolume(self, region.tag))
+        return _Region(region.tag, energy, compile_kernels(energy, self.comm, dim=3), region.cells, term)
 
     # ------------------------------------------------------------------ loads and fields
     def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:

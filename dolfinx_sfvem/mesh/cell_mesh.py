@@ -22,7 +22,10 @@ and :attr:`CellMesh.nodes` the whole geometry (the vertices first, so ``node_poi
 :meth:`CellMesh.face_centres` the geometry's points in the middle of edges and quadrilateral faces.
 A cell is valid when the Jacobian determinant of its map has one sign, not near zero, at every
 geometry node and at the centre (:func:`jacobian_determinants`); a cell where it changes sign
-(inverted, tangled) or vanishes (zero volume) is named in a ``ValueError``.
+(inverted, tangled) or vanishes (zero volume) is named in a ``ValueError``. A valid curved cell
+whose determinant varies by more than a factor 1 / :data:`CURVED_RATIO_WARNING` between its nodes
+is named in one warning: it is nearly tangled, and programs that invert its map (DOLFINx 0.5.2's
+XDMF writer) may fail on it.
 
 Vertex order (DOLFINx's, :func:`basix.geometry`): a tetrahedron's reference vertices
 (0,0,0), (1,0,0), (0,1,0), (0,0,1); a hexahedron's in tensor-product order (0,0,0),
@@ -59,6 +62,10 @@ PLURAL = {"triangle": "triangles", "quadrilateral": "quadrilaterals", "tetrahedr
 _TENSOR = ("quadrilateral", "hexahedron")
 #: relative tolerance of the Jacobian checks (of the cell's diameter to the power tdim)
 TOLERANCE = 1e-9
+#: a curved cell whose smallest Jacobian determinant at its nodes and centre is below this fraction
+#: of its largest is named in a warning (module docstring); gmsh's high-order optimization
+#: (``Mesh.HighOrderOptimize``) raises the ratio
+CURVED_RATIO_WARNING = 0.05
 #: 2-point Gauss-Legendre rule on [0, 1]: exact for degree 3, so the rule of its tensor product
 #: integrates the multilinear map's Jacobian determinant (degree <= 2 per direction) exactly
 _GAUSS_2 = (0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0))
@@ -347,6 +354,15 @@ class CellMesh:
                  f"have one sign, away from zero, at the {nodes} and the centre)")
             raise ValueError(f"{self.cell_type} {c} ({nodes} {cells[c].tolist()}, points "
                              f"{np.round(self.node_points[cells[c]], 12).tolist()}) {what}")
+        if self.geometry_degree > 1 and len(det):
+            ratio = np.abs(det).min(axis=1) / np.abs(det).max(axis=1)
+            worst = int(np.argmin(ratio))
+            if ratio[worst] < CURVED_RATIO_WARNING:
+                log.warning("%d curved %s(s) nearly tangled: the Jacobian determinant of %s %d varies by a factor "
+                            "%.3g between its nodes (a valid cell, but programs that invert its map may fail on it; "
+                            "gmsh's Mesh.HighOrderOptimize straightens such cells)",
+                            int(np.sum(ratio < CURVED_RATIO_WARNING)), self.cell_type, self.cell_type, worst,
+                            1 / ratio[worst])
         cells = cells.copy()
         cells[negative] = cells[negative][:, mirror_permutation(self.cell_type, self.geometry_degree)]
         return cells

@@ -279,7 +279,7 @@ class ArcLength(Control):
         solver.newton.forget_force()
         converged = reason > 0
         result = NewtonResult(converged, int(reason), iterations, norms,
-                              info.min_J if info else math.nan, info.min_J_polygon if info else -1,
+                              info.min_J if info else math.nan, info.min_J_cell if info else -1,
                               info.min_J_tag if info else -1, info.folded if info else 0, info.kinked if info else 0,
                               "" if converged else f"arc length: SNES reason {int(reason)} ({reason_name(reason)}): {why}",
                               pivots)

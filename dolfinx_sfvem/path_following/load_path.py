@@ -469,7 +469,7 @@ class LoadPath:
         b.destroy()
         if not info.admissible:
             raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
-                             f"in polygon {info.min_J_polygon} of region {info.min_J_tag}; {info.folded} folded "
+                             f"in cell {info.min_J_cell} of region {info.min_J_tag}; {info.folded} folded "
                              f"element(s), e.g. {info.folded_polygon}")
         gap = p.contact_gap()
         if gap.overlapping:

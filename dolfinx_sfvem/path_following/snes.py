@@ -200,7 +200,7 @@ class NewtonResult:
     iterations: int
     residual_norms: list[float]
     min_J: float
-    min_J_polygon: int
+    min_J_cell: int
     min_J_tag: int
     folded: int = 0
     kinked: int = 0
@@ -237,7 +237,7 @@ def state_failure(info: AssemblyInfo) -> list[str]:
     """Why a state with diagnostics ``info`` is not admissible (empty if it is)."""
     why = []
     if not (info.min_J > 0.0):
-        why.append(f"J = {info.min_J:.3e} in polygon {info.min_J_polygon} of region {info.min_J_tag}")
+        why.append(f"J = {info.min_J:.3e} in cell {info.min_J_cell} of region {info.min_J_tag}")
     if info.folded:
         why.append(f"{info.folded} folded element(s) (turned over at a vertex or edge midpoint), e.g. "
                    f"{info.folded_polygon}")
@@ -649,7 +649,7 @@ class SNESNewton:
         if self.abandoned:
             failure = f"{self.abandoned}; {failure}"
         return NewtonResult(bool(ok), int(reason), len(self.history) - 1 if self.abandoned else
-                            int(self.snes.getIterationNumber()), list(self.history), info.min_J, info.min_J_polygon,
+                            int(self.snes.getIterationNumber()), list(self.history), info.min_J, info.min_J_cell,
                             info.min_J_tag, info.folded, info.kinked, failure, self.negative_pivots(), self.rejected)
 
     def negative_pivots(self) -> int | None:

@@ -248,6 +248,6 @@ class LoadStepping(Control):
                     f"load step to load factor {target:.6g} failed with the smallest increment "
                     f"{self.increment:.3g} ({result.failure}; {result.iterations} Newton iterations, "
                     f"last residuals {', '.join(f'{r:.3e}' for r in result.residual_norms[-3:])}, "
-                    f"min J {result.min_J:.3e} in polygon {result.min_J_polygon} of region {result.min_J_tag}); "
+                    f"min J {result.min_J:.3e} in cell {result.min_J_cell} of region {result.min_J_tag}); "
                     f"last converged load factor {self.load:.6g}")
         raise SolveFailed(f"load path not finished after {self.max_attempts} attempts (load factor {self.load:.6g})")

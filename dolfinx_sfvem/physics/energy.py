@@ -33,9 +33,10 @@ POSITIVE: Bound = (0.0, True)
 NON_NEGATIVE: Bound = (0.0, False)
 
 #: The quadrature rules an energy may ask of a discretization (:attr:`Energy.quadrature`):
-#: "gauss", the discretization's own rule, or "lobatto", Gauss-Lobatto points at the element's
-#: nodes (the FEM's Q2 quadrilaterals and hexahedra only).
-QUADRATURES = ("gauss", "lobatto")
+#: "gauss", the discretization's own rule; "lobatto", Gauss-Lobatto points at the element's
+#: nodes (the FEM's Q2 quadrilaterals and hexahedra only); "reduced", the lowest Gauss rule exact
+#: for the linear-elastic stiffness (the FEM's P2 triangles and tetrahedra only).
+QUADRATURES = ("gauss", "lobatto", "reduced")
 
 
 # --------------------------------------------------------------------------- kinematics
@@ -173,7 +174,10 @@ class Energy:
         A key of :data:`QUADRATURES`: where Psi is integrated. "gauss" (the default): the
         discretization's own rule; "lobatto": the Gauss-Lobatto rule whose points are the nodes of
         the FEM's Q2 cells, so that Psi (and ln J) is evaluated where the element can turn over
-        first (its corners); the discretizations that have no such rule refuse it.
+        first (its corners); "reduced": the lowest Gauss rule that integrates the linear-elastic
+        stiffness exactly (degree 2 on the FEM's P2 triangles and tetrahedra: 3 and 4 points), so
+        that a squeezed P2 cell is judged and priced where its strain is, not near its curved
+        edges; the discretizations that have no such rule refuse it.
     """
 
     uses_gradient: bool = True
@@ -301,8 +305,9 @@ class ThirdMedium(Energy):
         ``n_dim`` of Eq. 9 (``"huhu_lulu"`` only); None (default): the dimension of the mesh.
         2 on a 3D mesh gives the 3D energy that equals the 2D one in plane strain.
     quadrature : str
-        ``"gauss"`` (default) or ``"lobatto"``: see :attr:`Energy.quadrature`. The energy is the
-        same; only where the FEM integrates it changes (the Q2 nodes instead of the Gauss points).
+        ``"gauss"`` (default), ``"lobatto"`` or ``"reduced"``: see :attr:`Energy.quadrature`. The
+        energy is the same; only where the FEM integrates it changes (the Q2 nodes, or the degree-2
+        Gauss points of P2 simplices, instead of the default Gauss points).
     beta1 : float >= 0 or None
         Weight of a skew penalty ``beta1/2 |w(F)|^2`` (w from :func:`skew_axial`), added outside
         the factor gamma: the local part of the rotation regularization of Wriggers et al. 2025
