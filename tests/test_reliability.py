@@ -89,11 +89,11 @@ def test_non_finite_load_is_rejected():
         p.prescribe(lambda x: np.isclose(x[0], 2.0), uy=float("inf"), name="load")
 
 
-def test_inverted_initial_configuration_names_the_polygon():
+def test_inverted_initial_configuration_names_the_cell():
     p = strip_problem()
     # fold the rightmost column over itself: J < 0 there
     p.set_displacement(ux=lambda x: np.where(x[0] > 1.5, -3.0 * (x[0] - 1.5), 0.0))
-    with pytest.raises(ValueError, match=r"inverted .* polygon \d+ of region \d"):
+    with pytest.raises(ValueError, match=r"inverted .* cell \d+ of region \d"):
         p.solve(steps=2)
 
 
