@@ -121,7 +121,7 @@ def test_failed_step_reports_step_load_residuals_and_smallest_J(tmp_path):
     msg = result.message
     assert msg.startswith("step 1:")
     assert "load factor" in msg and "last residuals" in msg and "min J" in msg
-    assert "polygon" in msg and "region" in msg
+    assert "cell" in msg and "region" in msg
     assert "DIVERGED_MAX_IT" in msg and "x atol" in msg and "x round-off" in msg   # where Newton stalled
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["converged"] is False and summary["message"] == msg
