@@ -69,7 +69,7 @@ class AssemblyInfo:
 
 #: why the SFVEM refuses :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` "lobatto" and "reduced" (the
 #: words after "is not available" in :func:`check_materials`' message)
-SFVEM_NO_LOBATTO = ("with the SFVEM (method='vem'), which integrates its projections with its own polygon and "
+SFVEM_NO_FEM_RULES = ("with the SFVEM (method='vem'), which integrates its projections with its own polygon and "
                     "polyhedron rules; the Gauss-Lobatto rule at the nodes is an option of method='fem' on Q2 cells, "
                     "the reduced rule one of method='fem' on P2 triangles and tetrahedra")
 

@@ -21,7 +21,7 @@ from dolfinx_sfvem.discretizations.assemble import (
     PolygonTables, basis_derivative_tables, coo_pattern, first_piola_at, load_loop, projected_fields, residual_loop,
     tangent_loop)
 from dolfinx_sfvem.discretizations.discretization import (
-    SFVEM_NO_LOBATTO, AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials)
+    SFVEM_NO_FEM_RULES, AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials)
 from dolfinx_sfvem.physics.enclosed_area import area_force_loop, area_tangent_loop
 from dolfinx_sfvem.physics.energy import Energy, VolumeWork
 from dolfinx_sfvem.discretizations.injectivity import folded_elements, gather_count
@@ -92,7 +92,7 @@ class SFVEMDiscretization(OnSFVEMNodes):
     def __init__(self, mesh: PolygonMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
                  *, l=None, l_min: int = 3, quadrature_degree: int | None = None, quadrature: str = "compressed",
                  verbose: bool = True):
-        check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_LOBATTO)
+        check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_FEM_RULES)
         self.comm = comm
         self.materials = dict(sorted(materials.items()))
         self.space = space = VEMSpace(mesh, comm, l=l, l_min=l_min, quadrature_degree=quadrature_degree,

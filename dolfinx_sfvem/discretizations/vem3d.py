@@ -33,7 +33,7 @@ from dolfinx_sfvem import _compat
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh, CellOutlines
 from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels
 from dolfinx_sfvem.discretizations.discretization import (
-    SFVEM_NO_LOBATTO, AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials)
+    SFVEM_NO_FEM_RULES, AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials)
 from dolfinx_sfvem.physics.enclosed_volume import EnclosedVolume
 from dolfinx_sfvem.physics.energy import Energy, VolumeWork
 from dolfinx_sfvem.mesh.csr import edge_key
@@ -88,7 +88,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
 
     def __init__(self, mesh: PolyhedronMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
                  *, l: int | None = None, l_min: int = L_MIN, quadrature: str = "auto", verbose: bool = True):
-        check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_LOBATTO)
+        check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_FEM_RULES)
         self.comm = comm
         self.materials = dict(sorted(materials.items()))
         self.space = space = PolyhedralSpace(mesh, comm, verbose=verbose)
