@@ -85,12 +85,39 @@ ERROR_QUADRATURE_DEGREE = 8
 #: (:attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature`): Gauss-Lobatto-Legendre with 3 points per
 #: direction, the Q2 nodes, exact for degree 3 per direction
 LOBATTO_RULE = ("GLL", 3)
-#: the cells that have :data:`LOBATTO_RULE`
-LOBATTO_CELLS = ("quadrilateral", "hexahedron")
 #: degree of the Gauss rule of the energies with ``quadrature="reduced"`` on P2 simplices: the
 #: linear-elastic stiffness (gradients of degree 1, their products of degree 2) exactly, 3 points
 #: per triangle, 4 per tetrahedron
 REDUCED_DEGREE = 2
+
+
+class ElementRules(typing.NamedTuple):
+    """The values of :attr:`~dolfinx_sfvem.physics.energy.Energy.quadrature` an element has.
+
+    Attributes
+    ----------
+    element : str
+        "P2" or "Q2", for messages.
+    rules : dict
+        ``quadrature`` -> FFCx's rule name and degree; None: basix's default rule of
+        :attr:`LagrangeDiscretization.quadrature_degree`.
+    elsewhere : str
+        Where the other rules are: the end of :func:`check_materials`' message.
+    """
+    element: str
+    rules: dict[str, tuple[str, int] | None]
+    elsewhere: str
+
+
+_P2_RULES = ElementRules("P2", {"gauss": None, "reduced": ("default", REDUCED_DEGREE)},
+                         "the Gauss-Lobatto rule at the nodes is that of Q2 quadrilaterals and hexahedra")
+_Q2_RULES = ElementRules("Q2", {"gauss": None, "lobatto": LOBATTO_RULE},
+                         "the reduced rule is that of P2 triangles and tetrahedra")
+#: cell type -> the quadratures its element has (the medium's "reduced" on P2 simplices, its
+#: "lobatto" on Q2 cells): what :class:`LagrangeDiscretization` checks the energies against and
+#: integrates them with (:meth:`LagrangeDiscretization._rule`)
+ELEMENT_RULES = {"triangle": _P2_RULES, "tetrahedron": _P2_RULES, "quadrilateral": _Q2_RULES,
+                 "hexahedron": _Q2_RULES}
 
 #: cell type -> the vertices (DOLFINx's local numbering) of the reference edges that carry the
 #: degree-2 dofs n_vertices + k (a triangle's dof 3 + k on the edge opposite vertex k; a Q2
@@ -205,13 +232,9 @@ class LagrangeDiscretization(Discretization):
             point_of_node = new_index[point_of_node]
         if np.any(tags == np.iinfo(np.int32).min):
             raise ValueError(f"cell {int(np.argmin(tags))} has no region tag")
-        if _cell_type(mesh) in LOBATTO_CELLS:
-            check_materials(tags, materials, ("gauss", "lobatto"), f"on Q2 {_cell_type(mesh)}s: the reduced rule "
-                                                                   "is that of P2 triangles and tetrahedra")
-        else:
-            check_materials(tags, materials, ("gauss", "reduced"), f"on P2 {_cell_type(mesh)}s: the Gauss-Lobatto "
-                                                                   "rule at the nodes is that of Q2 quadrilaterals "
-                                                                   "and hexahedra")
+        element = ELEMENT_RULES[_cell_type(mesh)]
+        check_materials(tags, materials, tuple(element.rules),
+                        f"on {element.element} {_cell_type(mesh)}s: {element.elsewhere}")
         if tdim == 2:
             self._output_mesh = PolygonMesh(points[:n_vertex_points], cells[:, _compat.COUNTER_CLOCKWISE[n_vertices]],
                                             tags, insert_hanging_nodes=False)
@@ -262,12 +285,12 @@ class LagrangeDiscretization(Discretization):
         self.global_nodes = np.asarray(im.local_to_global(np.arange(n_nodes, dtype=np.int32)), dtype=np.int64)
 
     def _rule(self, energy: Energy) -> tuple[str, int]:
-        """(FFCx's rule name, degree) of the quadrature of a region with ``energy``: basix's default
-        rule of :attr:`quadrature_degree`, :data:`LOBATTO_RULE` for ``quadrature="lobatto"``, the
-        default rule of :data:`REDUCED_DEGREE` for ``quadrature="reduced"``."""
-        if energy.quadrature == "lobatto":
-            return LOBATTO_RULE
-        return "default", REDUCED_DEGREE if energy.quadrature == "reduced" else self.quadrature_degree
+        """(FFCx's rule name, degree) of the quadrature of a region with ``energy``, from
+        :data:`ELEMENT_RULES`: basix's default rule of :attr:`quadrature_degree` for
+        ``quadrature="gauss"``, :data:`LOBATTO_RULE` for ``quadrature="lobatto"`` (Q2), the
+        default rule of :data:`REDUCED_DEGREE` for ``quadrature="reduced"`` (P2)."""
+        rule = ELEMENT_RULES[_cell_type(self.mesh)].rules[energy.quadrature]
+        return ("default", self.quadrature_degree) if rule is None else rule
 
     def _region_dx(self, cell_tags, tag: int) -> ufl.Measure:
         """The measure of region ``tag`` with its energy's rule (:meth:`_rule`)."""
