@@ -17,6 +17,8 @@ returned as they are; ``polygon`` and ``tabulated_name`` run a test once per tes
   ``assert_deepest_diagonal``, ``nonconvex`` (polygons to triangulate).
 - ``box_grid``: structured 3D grids of hexahedra or tetrahedra as the arrays of a ``CellMesh``
   (test_solid_surface, test_pictures3d).
+- ``medium_by_hand``: a medium, a field whose J varies and its Psi by hand, states and tangents
+  (test_fem_only_medium_rules, test_lobatto_medium, test_reduced_medium).
 """
 import json
 import pathlib
@@ -800,3 +802,64 @@ class ByHand:
 
 
 by_hand_fixture = shared(ByHand, "by_hand")
+
+
+# --------------------------------------------------------------------------- the medium's FEM-only rules
+class MediumByHand:
+    """A Hu-Hu medium (its tangent compiles in seconds) and a field whose J varies with its Psi
+    worked out by hand: what test_fem_only_medium_rules, test_lobatto_medium and
+    test_reduced_medium integrate with each rule (fixture ``medium_by_hand``)."""
+
+    K, MU, ALPHA_R = 1.0, 0.5, 0.3
+    #: u = (C1 x y, C2 x^2): J = 1 + C1 y - 2 C1 C2 x^2, smallest (0.88) at the corner (1, 0) of the unit square
+    C1, C2 = 0.3, 0.2
+
+    @classmethod
+    def medium(cls, quadrature: str, alpha_r: float | None = None) -> sf.ThirdMedium:
+        return sf.ThirdMedium(mu=cls.MU, K=cls.K, gamma=1.0, alpha_r=cls.ALPHA_R if alpha_r is None else alpha_r,
+                              regularization="huhu", quadrature=quadrature)
+
+    @staticmethod
+    def state(disc, u):
+        """The vector of the nodal values of ``u(x) -> (n, d)``."""
+        return nodal_field(disc, lambda x, key: u(x))
+
+    @classmethod
+    def energy_and_min_J(cls, disc, u) -> tuple[float, float]:
+        info = disc.residual(cls.state(disc, u), disc.create_vector())
+        return info.energy, info.min_J
+
+    @classmethod
+    def varying_J(cls, x: np.ndarray) -> np.ndarray:
+        """u = (C1 x y, C2 x^2) (in P2 and Q2)."""
+        return np.column_stack([cls.C1 * x[:, 0] * x[:, 1], cls.C2 * x[:, 0] ** 2])
+
+    @classmethod
+    def F_by_hand(cls, x: float, y: float) -> np.ndarray:
+        """F of :meth:`varying_J` at (x, y)."""
+        return np.array([[1 + cls.C1 * y, cls.C1 * x], [2 * cls.C2 * x, 1.0]])
+
+    @classmethod
+    def psi_by_hand(cls, x: float, y: float) -> float:
+        """The medium's Psi (gamma = 1, Hu-Hu) for :meth:`varying_J` at (x, y), in plane strain."""
+        F = cls.F_by_hand(x, y)
+        J = np.linalg.det(F)
+        G_G = 2 * cls.C1 ** 2 + (2 * cls.C2) ** 2               # u_x,xy = u_x,yx = C1, u_y,xx = 2 C2
+        return (cls.K / 2 * np.log(J) ** 2 + cls.MU / 2 * (J ** (-2 / 3) * (np.trace(F.T @ F) + 1) - 3)
+                + cls.ALPHA_R / 2 * G_G)
+
+    @classmethod
+    def tangent(cls, disc) -> np.ndarray:
+        """The tangent at u = 0, dense."""
+        A = disc.create_matrix()
+        disc.assemble_tangent(cls.state(disc, np.zeros_like), A)
+        return A.convert("dense").getDenseArray()
+
+    @staticmethod
+    def rigid_modes(tangent: np.ndarray) -> int:
+        """Dimension of the null space of a tangent (eigenvalues below 1e-10 of the largest in magnitude)."""
+        eigenvalues = np.linalg.eigvalsh(tangent)
+        return int(np.sum(np.abs(eigenvalues) < 1e-10 * np.abs(eigenvalues).max()))
+
+
+medium_by_hand_fixture = shared(MediumByHand, "medium_by_hand")
