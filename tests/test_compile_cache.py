@@ -11,6 +11,10 @@ import os
 import subprocess
 import sys
 
+import pytest
+
+from dolfinx_sfvem.discretizations.c_compiler import jit_c_compiler
+
 #: a solid and a huhu medium side by side on P2 triangles of an n x 2n grid: cheap to compile
 BUILD = """
 import json, sys
@@ -45,11 +49,30 @@ def c_files(cache) -> set[str]:
     return {path.name for path in cache.rglob("*.c")}
 
 
-def test_a_second_run_with_another_grid_gamma_and_hash_seed_finds_the_forms(tmp_path):
-    first = build(tmp_path, seed=0, n=2, gamma=1e-5)
-    compiled = c_files(tmp_path)
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory):
+    """A first run on an empty cache: (cache directory, module names, the .c files there)."""
+    cache = tmp_path_factory.mktemp("cache")
+    names = build(cache, seed=0, n=2, gamma=1e-5)
+    return cache, names, c_files(cache)
+
+
+def test_a_second_run_with_another_grid_gamma_and_hash_seed_finds_the_forms(first_run):
+    cache, first, compiled = first_run
     assert set(first) == {"energy", "residual", "tangent"}
     assert {f"{name}.c" for name in first.values()} <= compiled
-    second = build(tmp_path, seed=1, n=3, gamma=2e-6)
+    second = build(cache, seed=1, n=3, gamma=2e-6)
     assert second == first
-    assert c_files(tmp_path) == compiled            # nothing compiled again
+    assert c_files(cache) == compiled            # nothing compiled again
+
+
+@pytest.mark.skipif(jit_c_compiler() is None,
+                    reason="FFCx writes loops (gcc is faster there), no clang on PATH (the Makefile installs "
+                           "it), or CC set by the user")
+def test_the_forms_are_built_by_clang(first_run):
+    """clang leaves its version in the .comment section of what it compiles; gcc-built modules
+    carry only GCC's."""
+    cache, names, _ = first_run
+    for name in names.values():
+        (library,) = [path for path in cache.rglob(f"{name}*.so")]
+        assert b"clang version" in library.read_bytes(), name

@@ -41,6 +41,7 @@ import typing
 
 import ffcx.codegeneration.jit
 
+from dolfinx_sfvem.discretizations.c_compiler import c_compiler
 from dolfinx_sfvem.output import run_phase
 from dolfinx_sfvem.output.logs import quiet_compilers, say
 
@@ -58,9 +59,11 @@ _held_guard = threading.Lock()
 @contextlib.contextmanager
 def compiling() -> typing.Iterator[None]:
     """Context of every JIT compile of the package: the compilers' chatter kept off the console
-    (:func:`~dolfinx_sfvem.output.logs.quiet_compilers`) and each rank's compile under the inter-process
-    lock of its cache directory (:func:`locked_compiles`)."""
-    with quiet_compilers(), locked_compiles(), run_phase.in_phase("compiling forms (FFCx and the C compiler)"):
+    (:func:`~dolfinx_sfvem.output.logs.quiet_compilers`), each rank's compile under the inter-process
+    lock of its cache directory (:func:`locked_compiles`), with clang when it is installed
+    (:func:`~dolfinx_sfvem.discretizations.c_compiler.c_compiler`)."""
+    with quiet_compilers(), c_compiler(), locked_compiles(), \
+            run_phase.in_phase("compiling forms (FFCx and the C compiler)"):
         yield
 
 
