@@ -47,8 +47,8 @@ class AssemblyInfo:
     folded : int
         Number of folded elements (:mod:`~dolfinx_sfvem.discretizations.injectivity`): deformed boundary
         through vertices and edge midpoints turned over or crossing itself.
-    folded_polygon : int
-        Global index of one of them (-1 if none).
+    folded_cell : int
+        Global index of one of them, a cell as in ``min_J_cell`` (-1 if none).
     kinked : int
         Number of kinked solid elements (boundary crossing itself, orientation kept): reported,
         not rejected.
@@ -58,7 +58,7 @@ class AssemblyInfo:
     min_J_cell: int
     min_J_tag: int
     folded: int = 0
-    folded_polygon: int = -1
+    folded_cell: int = -1
     kinked: int = 0
 
     @property
