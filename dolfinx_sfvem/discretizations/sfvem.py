@@ -113,6 +113,11 @@ class EnclosedTerm(abc.ABC):
         matrix is assembled; :meth:`OnSFVEMNodes.assemble_tangent`)."""
 
 
+def _of_space(name: str) -> property:
+    """A read-only member of :class:`Discretization` that is the space's attribute ``name``."""
+    return property(lambda self: getattr(self.space, name), doc=f"The space's ``{name}`` (:class:`SFVEMNodes`).")
+
+
 class OnSFVEMNodes(Discretization):
     """The SFVEM discretization of Σ_regions ∫ Ψ_r(F, ∇F) dΩ on the nodes of an SFVEM space,
     ``self.space`` (:class:`~dolfinx_sfvem.discretizations.space.SFVEMNodes`: polygons or polyhedra),
@@ -188,38 +193,15 @@ class OnSFVEMNodes(Discretization):
         """The :class:`EnclosedTerm` of a :class:`VolumeWork` term on ``region``."""
 
     # ------------------------------------------------------------------ sizes and PETSc objects
-    @property
-    def gdim(self) -> int:
-        """The mesh's dimension d (the space's)."""
-        return self.space.gdim
-
-    @property
-    def n_owned_nodes(self) -> int:
-        return self.space.n_owned_nodes
-
-    @property
-    def n_local_nodes(self) -> int:
-        return self.space.n_local_nodes
-
-    @property
-    def num_dofs_global(self) -> int:
-        return self.space.num_dofs_global
-
-    @property
-    def x_nodes(self) -> np.ndarray:
-        return self.space.x_nodes
-
-    @property
-    def node_key(self) -> np.ndarray:
-        return self.space.node_key
-
-    @property
-    def node_point(self) -> np.ndarray:
-        return self.space.node_point
-
-    @property
-    def global_nodes(self) -> np.ndarray:
-        return self.space.global_nodes
+    #: the members of the contract that are the space's (:class:`Discretization`)
+    gdim = _of_space("gdim")
+    n_owned_nodes = _of_space("n_owned_nodes")
+    n_local_nodes = _of_space("n_local_nodes")
+    num_dofs_global = _of_space("num_dofs_global")
+    x_nodes = _of_space("x_nodes")
+    node_key = _of_space("node_key")
+    node_point = _of_space("node_point")
+    global_nodes = _of_space("global_nodes")
 
     def create_vector(self) -> PETSc.Vec:
         return self.space.create_vector()
