@@ -37,7 +37,7 @@ def polygon_min_J(problem: sf.ContactProblem) -> np.ndarray:
     _, _, _, grad = problem.disc.quadrature_fields(problem.x)
     J = (1 + grad[:, 0, 0]) * (1 + grad[:, 1, 1]) - grad[:, 0, 1] * grad[:, 1, 0]
     out = np.full(space.polygon_mesh.n_polygons, np.inf)
-    out[space.polygons] = np.minimum.reduceat(J, space.q_offsets[:-1])
+    out[space.cells] = np.minimum.reduceat(J, space.q_offsets[:-1])
     return out
 
 

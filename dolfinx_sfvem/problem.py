@@ -219,7 +219,7 @@ class ContactProblem:
             raise ValueError(f"petsc_options_prefix must be a non-empty string without a leading '-', "
                              f"got {petsc_options_prefix!r}")
         mesh = as_mesh(mesh)
-        self.gdim = 3 if isinstance(mesh, PolyhedronMesh) else mesh.gdim if isinstance(mesh, CellMesh) else 2
+        self.gdim = mesh.gdim
         if isinstance(mesh, PolyhedronMesh) and method == "fem":
             raise ValueError("method='fem' needs tetrahedra or hexahedra: give a CellMesh (a PolyhedronMesh is for "
                              "method='vem')")

@@ -97,9 +97,9 @@ def reference_points(disc: sf.SFVEMDiscretization) -> np.ndarray:
     space = disc.space
     X = space.x_nodes.copy()
     mesh = space.polygon_mesh
-    for k, polygon in enumerate(space.polygons):
-        X[space.polygon_dofs(k)[-1]] = polygon_centroid(mesh.polygon_coordinates(polygon))
-    assert np.all(space.node_kind[[space.polygon_dofs(k)[-1] for k in range(space.polygons.size)]] == INTERIOR)
+    for k, polygon in enumerate(space.cells):
+        X[space.cell_dofs(k)[-1]] = polygon_centroid(mesh.polygon_coordinates(polygon))
+    assert np.all(space.node_kind[[space.cell_dofs(k)[-1] for k in range(space.cells.size)]] == INTERIOR)
     return X
 
 

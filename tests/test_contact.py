@@ -78,7 +78,7 @@ def test_sfvem_guard_reports_a_kink_that_J_at_the_quadrature_points_misses():
     with problem.x.localForm() as xl:
         xl.array.reshape(-1, 2)[:] = problem.disc.space.x_nodes * [-2.0, 0.0]      # x -> -x
     info = assembly_info(problem)
-    assert info.folded == 1 and info.folded_polygon == 0 and not info.admissible
+    assert info.folded == 1 and info.folded_cell == 0 and not info.admissible
     with pytest.raises(ValueError, match="folded"):
         problem.solve(steps=1)
     squeezed = octagon_problem(medium())                # the medium is not checked

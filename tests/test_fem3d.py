@@ -79,7 +79,7 @@ def test_solid_cell_turned_over_at_a_vertex_is_folded(d, folded, tiny3d):
     assert info.admissible == (folded == 0)
     if folded:
         corner_cell = np.flatnonzero(np.all(mesh.points[mesh.cells].min(axis=1) == 0.0, axis=1))
-        assert info.folded_polygon == corner_cell[0]
+        assert info.folded_cell == corner_cell[0]
     for v in (x, b):
         v.destroy()
 

@@ -10,10 +10,9 @@ import dolfinx_sfvem as sf
 from dolfinx_sfvem import _compat
 from dolfinx_sfvem.discretizations.elasticity import linear_elastic_stiffness_3d
 from dolfinx_sfvem.meshes import extrude_polygons, octree_box, voronoi_box
-from dolfinx_sfvem.discretizations.polyhedral_space import (
-    CELL, FACE, MIDPOINT, VERTEX, PolyhedralSpace, fan_mesh, n_unknowns)
+from dolfinx_sfvem.discretizations.polyhedral_space import CELL, FACE, PolyhedralSpace, fan_mesh, n_unknowns
+from dolfinx_sfvem.discretizations.space import MIDPOINT, VERTEX
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.discretizations.projection3d import build_projections_3d
 from dolfinx_sfvem.mesh.polyhedron import polyhedron_edges, polyhedron_geometry, polyhedron_quadrature, face_quadrature
 
 WORLD = MPI.COMM_WORLD
@@ -85,13 +84,13 @@ def test_fan_mesh_is_conforming_and_fills_the_polyhedra(name):
 @pytest.mark.parametrize("name", MESHES)
 def test_node_coordinates_are_the_polyhedra_geometry(name):
     mesh, S = polyhedral_mesh(name), space(name)
-    for k, c in enumerate(S.polyhedra):
+    for k, c in enumerate(S.cells):
         points, faces = mesh.polyhedron(c)
         geometry = polyhedron_geometry(points, faces)
         edges = polyhedron_edges(faces)
         expected = np.concatenate([points, points[edges].mean(axis=1), geometry.face_centroids,
                                    geometry.centroid[None]])
-        nodes = S.polyhedron_dofs(k)
+        nodes = S.cell_dofs(k)
         assert S.x_nodes[nodes] == pytest.approx(expected, abs=1e-13)
         n_v, n_e, n_f = len(points), len(edges), len(faces)
         assert S.node_kind[nodes].tolist() == [VERTEX] * n_v + [MIDPOINT] * n_e + [FACE] * n_f + [CELL]
@@ -105,9 +104,9 @@ def test_interpolant_holds_point_values_and_exact_means(name):
     assert u[point] == pytest.approx(linear(S.x_nodes[point].T).T, abs=1e-13)
     assert u[~point] == pytest.approx(linear(S.x_nodes[~point].T).T, abs=1e-13)     # means at the centroids
     q = local_values(S.interpolate(quadratic, degree=2))
-    for k, c in enumerate(S.polyhedra):          # quadratic means against the element's own quadratures
+    for k, c in enumerate(S.cells):          # quadratic means against the element's own quadratures
         points, faces = mesh.polyhedron(c)
-        nodes = S.polyhedron_dofs(k)
+        nodes = S.cell_dofs(k)
         x_q, w_q = polyhedron_quadrature(points, faces, 2)
         assert q[nodes[-1]] == pytest.approx(quadratic(x_q.T) @ w_q / w_q.sum(), abs=1e-13)
         x_f, w_f, face_of = face_quadrature(points, faces, 2)
@@ -134,10 +133,10 @@ def test_fans_from_the_kernel_where_the_centroid_does_not_see_the_cell():
     assert np.bincount(fan.tetrahedron_cell, weights=volume) == pytest.approx(mesh.volumes, rel=1e-12)
     S = PolyhedralSpace(mesh, MPI.COMM_SELF, verbose=False)
     u = local_values(S.interpolate(quadratic, degree=2))
-    for k, c in enumerate(S.polyhedra):      # the means are those of the element's quadrature
+    for k, c in enumerate(S.cells):      # the means are those of the element's quadrature
         points, faces = mesh.polyhedron(c)
         x_q, w_q = polyhedron_quadrature(points, faces, 2)
-        assert u[S.polyhedron_dofs(k)[-1]] == pytest.approx(quadratic(x_q.T) @ w_q / w_q.sum(), abs=1e-12)
+        assert u[S.cell_dofs(k)[-1]] == pytest.approx(quadratic(x_q.T) @ w_q / w_q.sum(), abs=1e-12)
 
 
 # --------------------------------------------------------------------------- patch test
@@ -145,7 +144,7 @@ def elastic_patch_solution(S: PolyhedralSpace, young: float = 3.0, poisson: floa
     """Linear elasticity with the boundary unknowns of :func:`linear`: the solution vector."""
     A = S.create_matrix()
     blocks = []
-    for c in S.polyhedra:
+    for c in S.cells:
         K, _ = linear_elastic_stiffness_3d(*S.polyhedron_mesh.polyhedron(c), young, poisson)
         nd = K.shape[0] // 3
         node_major = (np.arange(3)[None, :] * nd + np.arange(nd)[:, None]).ravel()
@@ -194,7 +193,7 @@ def by_key(S: PolyhedralSpace, values: np.ndarray) -> dict[int, np.ndarray]:
 @pytest.mark.parametrize("name", MESHES)
 def test_parallel_space_has_the_serial_nodes_and_values(name):
     serial, parallel = space(name), space(name, parallel=True)
-    polyhedra = np.concatenate(WORLD.allgather(parallel.polyhedra))
+    polyhedra = np.concatenate(WORLD.allgather(parallel.cells))
     assert np.sort(polyhedra).tolist() == list(range(polyhedral_mesh(name).n_cells))   # each on one rank
     assert parallel.num_dofs_global == serial.num_dofs_global
     reference = by_key(serial, local_values(serial.interpolate(quadratic)))
@@ -236,10 +235,7 @@ def test_located_nodes_are_those_of_the_face_on_every_partition():
 @pytest.mark.parametrize("name", ["grid", "prisms"])
 def test_p2_function_of_a_quadratic_is_the_quadratic(name):
     S = space(name, parallel=True)
-    m = S.polyhedron_mesh
-    projections = build_projections_3d(m.points, m.face_offsets, m.face_vertices, m.cell_offsets, m.cell_faces,
-                                       m.cell_face_signs, cells=S.polyhedra)
     x = S.interpolate(quadratic, degree=2)
-    u = S.to_function(x, projections)
+    u = S.to_function(x)
     expected = quadratic(S.V.tabulate_dof_coordinates().T).T
     assert u.x.array.reshape(-1, 3) == pytest.approx(expected, abs=1e-10)

@@ -347,7 +347,7 @@ def test_failure_names_the_trial_states_that_left_the_domain():
     """A line search that failed because its trial states were rejected says so and names the
     worst of them (a folded cell with J > 0 everywhere), not a residual stall; without
     rejected trial states the stall is classified as before."""
-    folded = AssemblyInfo(1.0, 0.0095, 1103, 2, folded=1, folded_polygon=1105)
+    folded = AssemblyInfo(1.0, 0.0095, 1103, 2, folded=1, folded_cell=1105)
     start = AssemblyInfo(1.0, 0.0094, 1103, 2)
     assert solver._worse(folded, start) and not solver._worse(start, folded)
     assert solver._worse(AssemblyInfo(1.0, 0.001, 7, 2), start)

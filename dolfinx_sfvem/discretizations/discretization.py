@@ -15,7 +15,6 @@ state saved on one partition can be read on another.
 from __future__ import annotations
 
 import abc
-import dataclasses
 import typing
 from dataclasses import dataclass
 
@@ -47,8 +46,8 @@ class AssemblyInfo:
     folded : int
         Number of folded elements (:mod:`~dolfinx_sfvem.discretizations.injectivity`): deformed boundary
         through vertices and edge midpoints turned over or crossing itself.
-    folded_polygon : int
-        Global index of one of them (-1 if none).
+    folded_cell : int
+        Global index of one of them, a cell as in ``min_J_cell`` (-1 if none).
     kinked : int
         Number of kinked solid elements (boundary crossing itself, orientation kept): reported,
         not rejected.
@@ -58,7 +57,7 @@ class AssemblyInfo:
     min_J_cell: int
     min_J_tag: int
     folded: int = 0
-    folded_polygon: int = -1
+    folded_cell: int = -1
     kinked: int = 0
 
     @property
@@ -509,88 +508,3 @@ class Discretization(abc.ABC):
     @abc.abstractmethod
     def describe(self) -> dict:
         """Mesh facts for summary.json (JSON-serialisable)."""
-
-
-class OnSFVEMNodes(Discretization):
-    """A discretization whose nodes are the nodes of an SFVEM space, ``self.space``
-    (:class:`~dolfinx_sfvem.discretizations.space.SFVEMNodes`: polygons or polyhedra): sizes, coordinates, keys,
-    vectors and the located nodes are the space's; the force of each of its ``regions`` and energy
-    ``terms`` comes from its ``_add_force(reg, u, R, stats, regularization)``, a term is made by its
-    ``_term(region, energy, term)``."""
-
-    space: typing.Any
-    regions: list
-    terms: list
-
-    def _internal_force(self, x: PETSc.Vec, b: PETSc.Vec, regions: typing.Sequence,
-                        regularization: bool = True) -> np.ndarray:
-        """b = ∂/∂ũ of the energy of ``regions`` (Eq. 52), ghosts accumulated, their regularization
-        left out when ``regularization`` is False; returns this rank's [energy, min J, local cell of
-        min J]."""
-        stats = np.array([0.0, np.inf, -1.0])
-        with x.localForm() as xl, b.localForm() as bl:
-            bl.set(0.0)
-            u = xl.array_r.reshape(-1, self.gdim)
-            R = bl.array.reshape(-1, self.gdim)
-            for reg in regions:
-                self._add_force(reg, u, R, stats, regularization)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return stats
-
-    def medium_force(self, x: PETSc.Vec, b: PETSc.Vec, regularization: bool = True) -> None:
-        """b = ∂W_medium/∂ũ, the internal force of the third-medium regions alone, at x; without
-        their regularization when ``regularization`` is False (the same kernels, the parameters of
-        :meth:`Energy.unregularized_params`)."""
-        self._internal_force(x, b, [reg for reg in self.regions if reg.energy.is_medium], regularization)
-
-    def add_energy_term(self, tag: int, energy: Energy) -> EnergyTerm:
-        """Add ∫ ψ dΩ over region ``tag`` (:meth:`Discretization.add_energy_term`). ψ must declare
-        ``uses_gradient`` as the region's energy does: the term is assembled with the region's
-        basis tables; a cavity's −p ∫ (J − 1) dΩ is evaluated from the region's boundary traces
-        instead (``_term``)."""
-        region = next((reg for reg in self.regions if reg.tag == tag), None)
-        if region is None:
-            raise ValueError(f"energy term on region {tag}, which the mesh does not have")
-        if energy.uses_gradient != region.energy.uses_gradient:
-            raise ValueError(f"energy term {energy.name} on region {tag}: declare uses_gradient="
-                             f"{region.energy.uses_gradient} as the region's energy {region.energy.name} does")
-        term = EnergyTerm(tag, energy, dict(energy.params))
-        self.terms.append(self._term(region, energy, term))
-        return term
-
-    def term_force(self, term: EnergyTerm, x: PETSc.Vec, b: PETSc.Vec,
-                   params: typing.Mapping[str, float] | None = None) -> float:
-        """b = ∂/∂ũ ∫ ψ dΩ of the term alone (Eq. 52 over its region) with ``params``; returns ∫ ψ dΩ."""
-        reg = next(reg for reg in self.terms if reg.term is term)
-        alone = dataclasses.replace(reg, term=EnergyTerm(term.tag, term.energy,
-                                                         dict(params if params is not None else term.params)))
-        stats = self._internal_force(x, b, [alone])
-        return self.comm.allreduce(float(stats[0]), op=MPI.SUM)
-
-    @property
-    def n_owned_nodes(self) -> int:
-        return self.space.n_owned_nodes
-
-    @property
-    def n_local_nodes(self) -> int:
-        return self.space.n_local_nodes
-
-    @property
-    def num_dofs_global(self) -> int:
-        return self.space.num_dofs_global
-
-    @property
-    def x_nodes(self) -> np.ndarray:
-        return self.space.x_nodes
-
-    @property
-    def node_key(self) -> np.ndarray:
-        return self.space.node_key
-
-    def create_vector(self) -> PETSc.Vec:
-        return self.space.create_vector()
-
-    def locate_nodes(self, marker: Marker | None = None, tags: typing.Iterable[int] | None = None) -> np.ndarray:
-        """Local SFVEM nodes selected by ``marker`` (means at the points hosting them) and/or region
-        ``tags`` (:meth:`SFVEMNodes.locate_nodes`)."""
-        return self.space.locate_nodes(marker, tags)

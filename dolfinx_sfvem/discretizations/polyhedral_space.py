@@ -45,23 +45,24 @@ import dolfinx
 import dolfinx.fem
 
 from dolfinx_sfvem import _compat
-from dolfinx_sfvem.discretizations.assemble import coo_pattern
 from dolfinx_sfvem.output.logs import say
 from dolfinx_sfvem.mesh.polygon_mesh import coordinate_bisection
 from dolfinx_sfvem.mesh.csr import concatenated_ranges, next_entries, segment_owner
 from dolfinx_sfvem.discretizations.monomials3d import exponents3
-from dolfinx_sfvem.mesh.polyhedron import tetrahedron_rule
+from dolfinx_sfvem.mesh.polyhedron import energy_quadrature, tetrahedron_rule
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh, plane_coordinates
-from dolfinx_sfvem.discretizations.projection import ProjectionBlocks, pi_nabla_2, polygon_geometry
+from dolfinx_sfvem.discretizations.projection import pi_nabla_2, polygon_geometry
+from dolfinx_sfvem.discretizations.projection3d import L_MIN, build_projections_3d
 from dolfinx_sfvem.discretizations.quadrature import triangle_rule
-from dolfinx_sfvem.discretizations.space import EdgeLookup, SFVEMNodes, number_sfvem_nodes
+from dolfinx_sfvem.discretizations.space import MIDPOINT, EdgeLookup, SFVEMNodes
 
-#: kinds of SFVEM nodes on polyhedra
-VERTEX, MIDPOINT, FACE, CELL = 0, 1, 2, 3
+#: kinds of SFVEM nodes on polyhedra beyond the vertices and edge midpoints (:data:`VERTEX`,
+#: :data:`MIDPOINT`): the means on the faces and over the cells
+FACE, CELL = 2, 3
 
 #: the end vertices of the edges of the reference tetrahedron (basix): the P2 dof 4 + k sits on edge k
-_TET_EDGES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
+TET_EDGES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
 
 #: smallest fan tetrahedron or triangle, relative to its cell's volume or its face's area
 _FAN_RTOL = 1e-10
@@ -213,18 +214,29 @@ class PolyhedralSpace(SFVEMNodes):
         The polyhedral mesh (identical on every rank).
     comm
         Communicator; polyhedra are distributed by coordinate bisection of their centroids.
+    l
+        Degree of the gradient projection for every polyhedron; default the smallest sufficient
+        one per polyhedron (the rank test of docs/method.md §8).
+    l_min
+        Smallest degree the automatic choice tries.
+    quadrature
+        The energy rule (:func:`~dolfinx_sfvem.mesh.polyhedron.energy_quadrature`), exact for degree
+        2 l: ``"auto"`` (tensor rule on boxes, sub-tetrahedra elsewhere), ``"tetrahedra"`` or
+        ``"compressed"``.
     verbose
         Print a summary on rank 0.
 
     Attributes
     ----------
+    gdim : int
+        The mesh's dimension: 3.
     mesh : dolfinx.mesh.Mesh
         The distributed fan mesh of tetrahedra.
     V : dolfinx.fem.FunctionSpace
         Vector P2 space on it (node layout, output).
     cell_polyhedron : (n_local_tets,) int64
         Global polyhedron of every local tetrahedron (owned first, then ghosts).
-    polyhedra : (n_local,) int64
+    cells : (n_local,) int64
         Global indices of the polyhedra owned by this rank (sorted).
     tags : (n_local,) int64
         Their region tags.
@@ -245,12 +257,19 @@ class PolyhedralSpace(SFVEMNodes):
         Partition-independent node id (module docstring).
     global_nodes : (n_local_nodes,) int64
         Global SFVEM node index of every local node.
+    projections : Projections3D
+        Π^∇_2 and Π⁰_l∇ of the local polyhedra (:func:`~dolfinx_sfvem.discretizations.projection3d.build_projections_3d`).
+    quadrature : str
+        The name of the energy rule.
+    q_offsets, x_q, w_q
+        Energy quadrature of the local polyhedra (:class:`SFVEMNodes`; weights [volume]).
     """
 
-    def __init__(self, mesh: PolyhedronMesh, comm: MPI.Comm = MPI.COMM_WORLD, *, verbose: bool = True):
+    def __init__(self, mesh: PolyhedronMesh, comm: MPI.Comm = MPI.COMM_WORLD, *, l: int | None = None,
+                 l_min: int = L_MIN, quadrature: str = "auto", verbose: bool = True):
         self.polyhedron_mesh = mesh
         self.comm = comm
-        self.block_size = 3
+        self.gdim = mesh.gdim
         self.fan = fan_mesh(mesh)
         self._edges = mesh.edges()
         if comm.rank == 0:
@@ -262,22 +281,22 @@ class PolyhedralSpace(SFVEMNodes):
         self.mesh = _compat.create_tetrahedron_mesh(comm, cells, x, destinations)
         self.cell_polyhedron = self.fan.tetrahedron_cell[_compat.original_cell_index(self.mesh)]
         self.V = _compat.vector_function_space(self.mesh, 2)
-        self.polyhedra = np.unique(self.cell_polyhedron[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
-        self.tags = mesh.tags[self.polyhedra]
-
-        p2_nodes, kind, key = self._polyhedron_p2_nodes()
-        self.index_map, self.p2_node, self.dofs = number_sfvem_nodes(self.V, comm, p2_nodes)
-        self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
-        self.node_kind[self.dofs] = kind
-        self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
-        self.node_key[self.dofs] = key
-        self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :3].copy()
+        self.cells = np.unique(self.cell_polyhedron[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
+        self.tags = mesh.tags[self.cells]
+        self._number_nodes(*self._polyhedron_p2_nodes())
         self._to_p2: scipy.sparse.csr_matrix | None = None
         self._by_key: np.ndarray | None = None
         self._to_trace = None
-        self.global_nodes = np.asarray(self.index_map.local_to_global(np.arange(self.n_local_nodes, dtype=np.int32)),
-                                       dtype=np.int64)
         say(log, self.summary(), verbose, comm)
+        self.projections = build_projections_3d(mesh.points, mesh.face_offsets, mesh.face_vertices, mesh.cell_offsets,
+                                                mesh.cell_faces, mesh.cell_face_signs, cells=self.cells, l=l,
+                                                l_min=l_min)
+        self.quadrature = quadrature
+        rules = [energy_quadrature(*mesh.polyhedron(c), 2 * int(self.projections.l[k]), quadrature)
+                 for k, c in enumerate(self.cells)]
+        self.q_offsets = np.concatenate([[0], np.cumsum([len(w) for _, w in rules])]).astype(np.int64)
+        self.x_q = np.concatenate([x for x, _ in rules]) if rules else np.empty((0, 3))
+        self.w_q = np.concatenate([w for _, w in rules]) if rules else np.empty(0)
 
     # ------------------------------------------------------------------ numbering
     def _polyhedron_p2_nodes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -289,10 +308,10 @@ class PolyhedralSpace(SFVEMNodes):
         n_in = self.fan.nodes.shape[0]
         node_of_input = np.full(n_in, -1, dtype=np.int64)
         node_of_input[inp.ravel()] = p2[:, :4].ravel()
-        edge_node = EdgeLookup(inp[:, _TET_EDGES[:, 0]].ravel(), inp[:, _TET_EDGES[:, 1]].ravel(),
+        edge_node = EdgeLookup(inp[:, TET_EDGES[:, 0]].ravel(), inp[:, TET_EDGES[:, 1]].ravel(),
                                p2[:, 4:].ravel(), n_in)
 
-        P = self.polyhedra
+        P = self.cells
         n_faces = np.diff(mesh.cell_offsets)[P]
         entries = concatenated_ranges(mesh.cell_offsets[P], n_faces)
         face = mesh.cell_faces[entries]
@@ -325,34 +344,6 @@ class PolyhedralSpace(SFVEMNodes):
         if np.any(nodes < 0):
             raise RuntimeError("a polyhedron node is missing from the fan mesh")
         return nodes, kind, key
-
-    # ------------------------------------------------------------------ sizes
-    def polyhedron_dofs(self, k: int) -> npt.NDArray[np.int64]:
-        """Local SFVEM nodes of local polyhedron ``k`` in the element's DOF order."""
-        return self.dofs[self.dof_offsets[k]:self.dof_offsets[k + 1]]
-
-    # ------------------------------------------------------------------ PETSc layout
-    def create_matrix(self) -> PETSc.Mat:
-        """AIJ matrix (block size 3) with the COO pattern of the dense polyhedron blocks (node-major:
-        row ``3 * node + i``), in local polyhedron order, then the owned diagonal; values are
-        given to ``MatSetValuesCOO`` in that order (:meth:`coo_offsets`)."""
-        n_owned, n_global = 3 * self.n_owned_nodes, self.num_dofs_global
-        A = PETSc.Mat().create(self.comm)
-        A.setSizes(((n_owned, n_global), (n_owned, n_global)))
-        A.setType(PETSc.Mat.Type.AIJ)
-        A.setBlockSize(3)
-        rows, cols = coo_pattern(self.dof_offsets, self.dofs, self.global_nodes, self.coo_offsets(), 3)
-        start = 3 * self.index_map.local_range[0]
-        diagonal = np.arange(start, start + n_owned, dtype=np.int32)
-        _compat.mat_set_preallocation_coo(A, np.concatenate([rows, diagonal]), np.concatenate([cols, diagonal]))
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-        return A
-
-    def coo_offsets(self) -> npt.NDArray[np.int64]:
-        """Start (n_local + 1,) of each local polyhedron's (3 n_d)^2 values in the COO order of
-        :meth:`create_matrix` (the owned diagonal's 3 n_owned entries follow)."""
-        nd = np.diff(self.dof_offsets)
-        return np.concatenate([[0], np.cumsum(9 * nd * nd)]).astype(np.int64)
 
     # ------------------------------------------------------------------ fields
     def interpolate(self, f: typing.Callable[[np.ndarray], np.ndarray], degree: int = 4) -> PETSc.Vec:
@@ -392,30 +383,7 @@ class PolyhedralSpace(SFVEMNodes):
             xl.array[:] = values.ravel()
         return x
 
-    def to_function(self, x: PETSc.Vec, projections: ProjectionBlocks,
-                    u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
-        """The P2 :class:`dolfinx.fem.Function` of an SFVEM state (output, loads on faces): the values
-        of :meth:`p2_interpolation` at the P2 nodes, continuous across faces.
-
-        Parameters
-        ----------
-        x
-            Ghosted SFVEM vector (ghost values up to date).
-        projections
-            Of the local polyhedra, in ``polyhedra`` order (``Pi_nabla_of``, ``centroid``,
-            ``diameter``); those of the first call are kept for the later ones.
-        u
-            Function on ``self.V`` to fill; created when omitted.
-        """
-        T = self.p2_interpolation(projections)
-        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
-        with x.localForm() as xl:
-            values = xl.array_r.reshape(-1, 3)
-        u.x.array[:] = (T @ values).ravel()
-        u.x.scatter_forward()
-        return u
-
-    def p2_interpolation(self, projections: ProjectionBlocks) -> scipy.sparse.csr_matrix:
+    def p2_interpolation(self) -> scipy.sparse.csr_matrix:
         """The sparse map T (n_local_p2, n_local_nodes) from SFVEM node values to the values at the P2
         nodes of the owned fan tetrahedra (rows of the other P2 nodes are zero); built once.
 
@@ -435,7 +403,7 @@ class PolyhedralSpace(SFVEMNodes):
         p2 = _compat.cell_dofs(self.V)[:owned]
         inp = _compat.input_node_index(self.mesh)[_compat.cell_geometry_nodes(self.mesh)[:owned]]
         ends = np.concatenate([np.stack([inp, inp], axis=2),
-                               np.stack([inp[:, _TET_EDGES[:, 0]], inp[:, _TET_EDGES[:, 1]]], axis=2)], axis=1)
+                               np.stack([inp[:, TET_EDGES[:, 0]], inp[:, TET_EDGES[:, 1]]], axis=2)], axis=1)
         nodes, first = np.unique(p2.ravel(), return_index=True)
         a, b = ends.reshape(-1, 2)[first].T
         a, b = np.minimum(a, b), np.maximum(a, b)
@@ -451,12 +419,13 @@ class PolyhedralSpace(SFVEMNodes):
             cols.append(np.tile(self._node_of_key(dof_keys), at.size))
             vals.append(weights.ravel())
         exponents = exponents3(2)
-        cell = np.searchsorted(self.polyhedra, b - n_p - n_f)
+        projections = self.projections
+        cell = np.searchsorted(self.cells, b - n_p - n_f)
         for k in np.unique(cell[in_cell]):
             at = np.flatnonzero(in_cell & (cell == k))
             xi = (x[at] - projections.centroid[k]) / projections.diameter[k]
             m = np.prod(xi[:, None, :] ** exponents[None], axis=2)                  # (n, 10)
-            dofs = self.polyhedron_dofs(k)
+            dofs = self.cell_dofs(k)
             rows.append(np.repeat(nodes[at], dofs.size))
             cols.append(np.tile(dofs, at.size))
             vals.append((m @ projections.Pi_nabla_of(k)).ravel())

@@ -14,6 +14,7 @@ blocked by two components, dof ``2 * node + i`` for component ``i``.
 """
 from __future__ import annotations
 
+import abc
 import logging
 import typing
 
@@ -28,6 +29,7 @@ import dolfinx.fem
 
 from dolfinx_sfvem import _compat
 from dolfinx_sfvem.output.logs import say
+from dolfinx_sfvem.discretizations.assemble import coo_pattern
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.discretizations.node_keys import mean_keys, midpoint_keys
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
@@ -38,7 +40,8 @@ from dolfinx_sfvem.discretizations.quadrature import compressed_polygon_quadratu
 #: energy quadratures of :class:`VEMSpace`
 QUADRATURES = ("compressed", "subtriangles")
 
-#: kinds of SFVEM nodes
+#: kinds of SFVEM nodes: at a vertex, at an edge midpoint, a polygon's mean (on polyhedra: the
+#: first two, then the means of faces and cells)
 VERTEX, MIDPOINT, INTERIOR = 0, 1, 2
 
 log = logging.getLogger(__name__)
@@ -113,17 +116,64 @@ def number_sfvem_nodes(V: dolfinx.fem.FunctionSpace, comm: MPI.Comm, p2_nodes: n
     return index_map, p2_node, sfvem_of_p2[p2_nodes]
 
 
-class SFVEMNodes:
-    """The sizes and PETSc objects of SFVEM nodes numbered by :func:`number_sfvem_nodes`.
+class SFVEMNodes(abc.ABC):
+    """The nodes of an SFVEM space, numbered by :func:`number_sfvem_nodes`, with their sizes and PETSc
+    objects: what the spaces on polygons and on polyhedra share.
 
-    Subclasses set ``comm``, ``index_map`` (the nodes, block size 1), ``block_size`` (the
-    displacement components: unknown ``block_size * node + i``), ``x_nodes`` (n_local_nodes, gdim),
-    ``tags`` (one per local cell) and the CSR ``dof_offsets``, ``dofs`` of the local cells' nodes.
+    Subclasses set ``comm``, ``gdim`` (the mesh's dimension d: d displacement components, unknown
+    ``d * node + i``), ``V`` (the hosting vector P2 space), ``cells`` (global indices of the local
+    cells: polygons, polyhedra), ``tags`` (one per local cell), the CSR ``dof_offsets``, ``dofs``
+    of the local cells' nodes, the energy's ``projections`` of the local cells and its quadrature
+    (``q_offsets``, ``x_q``, ``w_q``), and number the nodes by :meth:`_number_nodes`.
+
+    Attributes
+    ----------
+    index_map : dolfinx.cpp.common.IndexMap
+        Owned/ghost layout of the nodes (block size 1; d for the unknowns).
+    p2_node : (n_local_nodes,) int64
+        Local P2 node of ``V`` hosting each node.
+    node_kind : (n_local_nodes,) int8
+        :data:`VERTEX`, :data:`MIDPOINT`, or the kinds of the cell's other means.
+    node_key : (n_local_nodes,) int64
+        Partition-independent node id (the point index of a vertex).
+    node_point : (n_local_nodes,) int64
+        The mesh point of every VERTEX node, -1 for the others.
+    x_nodes : (n_local_nodes, d) float64
+        Coordinates of the nodes (a mean at the P2 node hosting it).
+    global_nodes : (n_local_nodes,) int64
+        Global node index of every local node.
+    q_offsets : (n_local + 1,) int64
+        The quadrature points of local cell k are ``q_offsets[k]:q_offsets[k + 1]``.
+    x_q : (n_q, d) float64
+        Points of the energy quadrature of the local cells.
+    w_q : (n_q,) float64
+        Their weights [area or volume].
     """
 
     comm: MPI.Comm
-    index_map: dolfinx.cpp.common.IndexMap
-    block_size: int
+    gdim: int
+    V: dolfinx.fem.FunctionSpace
+    cells: np.ndarray
+    tags: np.ndarray
+    dof_offsets: np.ndarray
+    dofs: np.ndarray
+
+    def _number_nodes(self, p2_nodes: np.ndarray, kind: np.ndarray, key: np.ndarray) -> None:
+        """Number the nodes (:func:`number_sfvem_nodes`) from the P2 node, kind and key (n,) of every
+        DOF entry of the local cells (in ``dofs`` order), and set the attributes of the nodes."""
+        self.index_map, self.p2_node, self.dofs = number_sfvem_nodes(self.V, self.comm, p2_nodes)
+        self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
+        self.node_kind[self.dofs] = kind
+        self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
+        self.node_key[self.dofs] = key
+        self.node_point = np.where(self.node_kind == VERTEX, self.node_key, -1)
+        self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :self.gdim].copy()
+        self.global_nodes = np.asarray(self.index_map.local_to_global(np.arange(self.n_local_nodes, dtype=np.int32)),
+                                       dtype=np.int64)
+
+    def cell_dofs(self, k: int) -> np.ndarray:
+        """Local nodes of local cell ``k`` in the element's DOF order."""
+        return self.dofs[self.dof_offsets[k]:self.dof_offsets[k + 1]]
 
     @property
     def n_owned_nodes(self) -> int:
@@ -135,12 +185,37 @@ class SFVEMNodes:
 
     @property
     def num_dofs_global(self) -> int:
-        """Number of SFVEM unknowns (``block_size`` per node) over all ranks."""
-        return self.block_size * self.index_map.size_global
+        """Number of SFVEM unknowns (d per node) over all ranks."""
+        return self.gdim * self.index_map.size_global
 
     def create_vector(self) -> PETSc.Vec:
-        """A ghosted PETSc vector of SFVEM unknowns (block size ``block_size``)."""
-        return _compat.create_petsc_vector(self.index_map, self.block_size)
+        """A ghosted PETSc vector of SFVEM unknowns (block size d)."""
+        return _compat.create_petsc_vector(self.index_map, self.gdim)
+
+    def create_matrix(self) -> PETSc.Mat:
+        """AIJ matrix (block size d) with the COO pattern of the dense cell blocks (node-major: row
+        ``d * node + i``), in local cell order, then the owned diagonal; values are given to
+        ``MatSetValuesCOO`` in that order (:meth:`coo_offsets`). It keeps its pattern when rows are
+        zeroed and refuses new nonzeros."""
+        d = self.gdim
+        n_owned, n_global = d * self.n_owned_nodes, self.num_dofs_global
+        A = PETSc.Mat().create(self.comm)
+        A.setSizes(((n_owned, n_global), (n_owned, n_global)))
+        A.setType(PETSc.Mat.Type.AIJ)
+        A.setBlockSize(d)
+        rows, cols = coo_pattern(self.dof_offsets, self.dofs, self.global_nodes, self.coo_offsets(), d)
+        start = d * self.index_map.local_range[0]
+        diagonal = np.arange(start, start + n_owned, dtype=np.int32)
+        _compat.mat_set_preallocation_coo(A, np.concatenate([rows, diagonal]), np.concatenate([cols, diagonal]))
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        return A
+
+    def coo_offsets(self) -> npt.NDArray[np.int64]:
+        """Start (n_local + 1,) of each local cell's (d n_d)^2 values in the COO order of
+        :meth:`create_matrix` (the owned diagonal's d n_owned entries follow)."""
+        nd = np.diff(self.dof_offsets)
+        return np.concatenate([[0], np.cumsum(self.gdim ** 2 * nd * nd)]).astype(np.int64)
 
     def locate_nodes(self, marker: typing.Callable[[np.ndarray], np.ndarray] | None = None,
                      tags: typing.Iterable[int] | None = None) -> np.ndarray:
@@ -170,6 +245,30 @@ class SFVEMNodes:
             in_tags[self.dofs[np.repeat(chosen, counts)]] = True
             selected &= in_tags
         return np.flatnonzero(self.make_consistent(selected.astype(np.float64)) > 0)
+
+    @abc.abstractmethod
+    def p2_interpolation(self) -> scipy.sparse.csr_matrix:
+        """The sparse map (n_local_p2, n_local_nodes) from the node values to the values at the nodes
+        of ``V`` (the SFVEM function's P2 representation, per space)."""
+
+    def to_function(self, x: PETSc.Vec, u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
+        """The P2 :class:`dolfinx.fem.Function` of an SFVEM state on ``V`` (output; in 3D the loads on
+        faces): the values of :meth:`p2_interpolation` at the P2 nodes.
+
+        Parameters
+        ----------
+        x
+            Ghosted SFVEM vector (ghost values up to date).
+        u
+            Function on ``V`` to fill; created when omitted.
+        """
+        T = self.p2_interpolation()
+        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
+        with x.localForm() as xl:
+            values = xl.array_r.reshape(-1, self.gdim)
+        u.x.array[:] = (T @ values).ravel()
+        u.x.scatter_forward()
+        return u
 
     def make_consistent(self, node_values: np.ndarray) -> np.ndarray:
         """Max-combine a per-node indicator over all ranks that hold the node."""
@@ -215,7 +314,9 @@ class VEMSpace(SFVEMNodes):
         The distributed quadrature sub-triangulation.
     V : dolfinx.fem.FunctionSpace
         Vector P2 space on it (output and node layout).
-    polygons : (n_local,) int64
+    gdim : int
+        The mesh's dimension: 2.
+    cells : (n_local,) int64
         Global indices of the polygons assembled on this rank.
     tags : (n_local,) int32
         Their region tags.
@@ -237,7 +338,7 @@ class VEMSpace(SFVEMNodes):
     projections : Projections
         Π^∇_2 and Π⁰_l∇ of the local polygons.
     q_offsets, x_q, w_q
-        Energy quadrature of the local polygons.
+        Energy quadrature of the local polygons (:class:`SFVEMNodes`; weights [area]).
     """
 
     def __init__(self, mesh: PolygonMesh, comm: MPI.Comm = MPI.COMM_WORLD, *,
@@ -248,23 +349,21 @@ class VEMSpace(SFVEMNodes):
             raise ValueError(f"unknown quadrature {quadrature!r}; use one of {QUADRATURES}")
         self.polygon_mesh = mesh
         self.comm = comm
-        self.block_size = 2
+        self.gdim = mesh.gdim
         self.mesh, cell_polygon = mesh.to_dolfinx(comm)
         self.V = _compat.vector_function_space(self.mesh, 2)
         #: polygon of every local sub-triangle (owned cells first)
         self.cell_polygon = np.asarray(cell_polygon, dtype=np.int64)
-        self.polygons = np.unique(self.cell_polygon[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
-        self.tags = mesh.tags[self.polygons]
+        self.cells = np.unique(self.cell_polygon[:_compat.num_owned_cells(self.mesh)]).astype(np.int64)
+        self.tags = mesh.tags[self.cells]
+        self._number_nodes(*self._polygon_p2_nodes())
 
-        p2_nodes, kind = self._polygon_p2_nodes()
-        self._number_nodes(p2_nodes, kind)
-
-        l_local = l if (l is None or np.isscalar(l)) else np.asarray(l)[self.polygons]
+        l_local = l if (l is None or np.isscalar(l)) else np.asarray(l)[self.cells]
         self.projections: Projections = build_projections(mesh.points, mesh.offsets, mesh.vertices,
-                                                          polygons=self.polygons, l=l_local, l_min=l_min)
+                                                          polygons=self.cells, l=l_local, l_min=l_min)
         degrees = (2 * self.projections.l if quadrature_degree is None
-                   else np.full(self.polygons.size, quadrature_degree))
-        triangles = (mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.polygons, degrees)
+                   else np.full(self.cells.size, quadrature_degree))
+        triangles = (mesh.nodes, mesh.quadrature_triangles, mesh.quadrature_triangle_offsets, self.cells, degrees)
         self.q_offsets, self.x_q, self.w_q = (
             polygon_quadrature(*triangles) if quadrature == "subtriangles"
             else compressed_polygon_quadrature(mesh.points, mesh.offsets, mesh.vertices, *triangles))
@@ -272,8 +371,8 @@ class VEMSpace(SFVEMNodes):
         say(log, self.summary(), verbose, comm)
 
     # ------------------------------------------------------------------ numbering
-    def _polygon_p2_nodes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Local P2 node of every SFVEM DOF of the local polygons, and its kind."""
+    def _polygon_p2_nodes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Local P2 node, kind and partition-independent key of every SFVEM DOF of the local polygons."""
         mesh = self.polygon_mesh
         inp = _compat.input_node_index(self.mesh)[_compat.cell_geometry_nodes(self.mesh)]
         p2 = _compat.cell_dofs(self.V)
@@ -283,7 +382,7 @@ class VEMSpace(SFVEMNodes):
         # P2 edge dof 3 + k sits on the reference edge opposite vertex k
         edge_node = EdgeLookup(inp[:, [1, 0, 0]].ravel(), inp[:, [2, 2, 1]].ravel(), p2[:, 3:].ravel(), n_in)
 
-        P = self.polygons
+        P = self.cells
         N = mesh.offsets[P + 1] - mesh.offsets[P]
         nd = 2 * N + 1
         self.dof_offsets = np.concatenate([[0], np.cumsum(nd)]).astype(np.int64)
@@ -302,28 +401,14 @@ class VEMSpace(SFVEMNodes):
         nodes[at_vertex], kind[at_vertex] = node_of_input[v], VERTEX
         nodes[at_mid], kind[at_mid] = edge_node(v, v_next), MIDPOINT
         # partition-independent key of every DOF node (checkpoints)
-        self._dof_key = np.empty(self.dof_offsets[-1], dtype=np.int64)
-        self._dof_key[at_vertex] = v
-        self._dof_key[at_mid] = midpoint_keys(mesh, v, v_next)
-        self._dof_key[first + 2 * N] = mean_keys(mesh, P)
+        key = np.empty(self.dof_offsets[-1], dtype=np.int64)
+        key[at_vertex] = v
+        key[at_mid] = midpoint_keys(mesh, v, v_next)
+        key[first + 2 * N] = mean_keys(mesh, P)
         nodes[first + 2 * N], kind[first + 2 * N] = interior, INTERIOR
         if np.any(nodes < 0):
             raise RuntimeError("a polygon node is missing from the sub-triangulation")
-        return nodes, kind
-
-    def _number_nodes(self, p2_nodes: np.ndarray, kind: np.ndarray) -> None:
-        """Global numbering of the SFVEM nodes: owned P2 nodes that are SFVEM nodes, then ghosts."""
-        self.index_map, self.p2_node, self.dofs = number_sfvem_nodes(self.V, self.comm, p2_nodes)
-        self.node_kind = np.empty(self.p2_node.size, dtype=np.int8)
-        self.node_kind[self.dofs] = kind
-        self.node_key = np.empty(self.p2_node.size, dtype=np.int64)
-        self.node_key[self.dofs] = self._dof_key
-        self.node_point = np.where(self.node_kind == VERTEX, self.node_key, -1)   # mesh point of VERTEX nodes
-        self.x_nodes = self.V.tabulate_dof_coordinates()[self.p2_node, :2].copy()
-
-    def polygon_dofs(self, k: int) -> np.ndarray:
-        """Local SFVEM node indices of local polygon ``k`` ([vertices, midpoints, interior])."""
-        return self.dofs[self.dof_offsets[k]:self.dof_offsets[k + 1]]
+        return nodes, kind, key
 
     def coarse_interpolation(self) -> PETSc.Mat:
         """The vertex values of a coarse field into the SFVEM unknowns: a vertex node keeps its
@@ -356,7 +441,7 @@ class VEMSpace(SFVEMNodes):
         """(node, vertex node, weight) triplets of :meth:`coarse_interpolation` for the owned
         nodes, each pair once (a node shared by polygons gets the same weights from each)."""
         mesh = self.polygon_mesh
-        N = mesh.offsets[self.polygons + 1] - mesh.offsets[self.polygons]
+        N = mesh.offsets[self.cells + 1] - mesh.offsets[self.cells]
         first = self.dof_offsets[:-1]
         vertex = self.dofs[concatenated_ranges(first, N)]                    # (sum N,) vertex nodes
         v_first = np.concatenate([[0], np.cumsum(N)[:-1]])
@@ -386,8 +471,9 @@ class VEMSpace(SFVEMNodes):
         return row[entry], col[entry], val[entry]
 
     # ------------------------------------------------------------------ output
-    def _p2_interpolation(self) -> scipy.sparse.csr_matrix:
-        """Sparse map from local SFVEM node values to local P2 node values.
+    def p2_interpolation(self) -> scipy.sparse.csr_matrix:
+        """Sparse map (n_local_p2, n_local_nodes) from local SFVEM node values to local P2 node values;
+        built once.
 
         Boundary and interior-DOF nodes of the P2 space that are SFVEM vertices/midpoints
         take their DOF value; every other P2 node (fan centre, spoke midpoints) takes the
@@ -400,7 +486,7 @@ class VEMSpace(SFVEMNodes):
         owned_cells = _compat.num_owned_cells(self.mesh)
         p2 = _compat.cell_dofs(self.V)[:owned_cells]
         x_p2 = self.V.tabulate_dof_coordinates()[:, :2]
-        cell_local_polygon = np.searchsorted(self.polygons, self.cell_polygon[:owned_cells])
+        cell_local_polygon = np.searchsorted(self.cells, self.cell_polygon[:owned_cells])
         # one owning polygon per P2 node of the owned cells (any polygon containing it gives
         # the same value for boundary nodes; interior nodes belong to exactly one polygon);
         # nodes seen only by ghost cells get their values from their owner by a scatter
@@ -418,29 +504,12 @@ class VEMSpace(SFVEMNodes):
             k = owner[node]
             evaluate_monomials(x_p2[node], proj.centroid[k], proj.diameter[k], 2, m, dm_dx, dm_dy)
             rows.append(np.full(self.dof_offsets[k + 1] - self.dof_offsets[k], node))
-            cols.append(self.polygon_dofs(k))
+            cols.append(self.cell_dofs(k))
             vals.append(m @ proj.Pi_nabla_of(k))
         self._to_p2 = scipy.sparse.csr_matrix(
             (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
             shape=(n_p2, self.n_local_nodes))
         return self._to_p2
-
-    def to_function(self, x: PETSc.Vec, u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
-        """The P2 :class:`dolfinx.fem.Function` of an SFVEM solution (for XDMF/VTK output).
-
-        Parameters
-        ----------
-        x
-            Ghosted SFVEM vector (ghost values must be up to date).
-        u
-            Function on ``self.V`` to fill; created when omitted.
-        """
-        u = u if u is not None else dolfinx.fem.Function(self.V, name="u")
-        with x.localForm() as xl:
-            values = xl.array.reshape(-1, 2)
-        u.x.array[:] = (self._p2_interpolation() @ values).ravel()
-        u.x.scatter_forward()
-        return u
 
     # ------------------------------------------------------------------ reporting
     def l_histogram(self) -> dict[int, int]:

@@ -1,11 +1,11 @@
 """SFVEM discretization on polyhedra: residual and tangent of a region-wise energy into PETSc objects.
 
-The 3D counterpart of :mod:`dolfinx_sfvem.discretizations.vem` (docs/method.md §8): the space
+The polyhedra's hooks of :class:`~dolfinx_sfvem.discretizations.sfvem.OnSFVEMNodes` (docs/method.md
+§8), which holds the steps both dimensions share: the space
 (:class:`~dolfinx_sfvem.discretizations.polyhedral_space.PolyhedralSpace`, hosted by the P2 space of a
-tetrahedral fan mesh), the projections of every local polyhedron
-(:func:`~dolfinx_sfvem.discretizations.projection3d.build_projections_3d`), the energy quadrature
-(:func:`~dolfinx_sfvem.mesh.polyhedron.energy_quadrature`) and the compiled 3D kernels of each region's
-UFL energy meet in the loops of :mod:`~dolfinx_sfvem.discretizations.polyhedron_loops`.
+tetrahedral fan mesh, with the projections and the energy quadrature of its polyhedra) and the
+compiled 3D kernels of each region's UFL energy meet in the loops of
+:mod:`~dolfinx_sfvem.discretizations.polyhedron_loops`.
 
 What the contact checks, the pictures and the loads on faces see is the *host*: the P2 function on
 the fan mesh that :meth:`PolyhedralSpace.p2_interpolation` makes of the SFVEM state (T u, T a fixed
@@ -31,19 +31,16 @@ import dolfinx.fem.petsc
 
 from dolfinx_sfvem import _compat
 from dolfinx_sfvem.mesh.cell_mesh import CellMesh, CellOutlines
-from dolfinx_sfvem.discretizations.compiled_energy import compile_kernels
-from dolfinx_sfvem.discretizations.discretization import (
-    SFVEM_NO_FEM_RULES, AssemblyInfo, EnergyTerm, OnSFVEMNodes, check_materials)
+from dolfinx_sfvem.discretizations.discretization import SFVEM_NO_FEM_RULES, EnergyTerm, check_materials
+from dolfinx_sfvem.discretizations.sfvem import EnclosedTerm, OnSFVEMNodes, Region
 from dolfinx_sfvem.physics.enclosed_volume import EnclosedVolume
-from dolfinx_sfvem.physics.energy import Energy, VolumeWork
+from dolfinx_sfvem.physics.energy import Energy
 from dolfinx_sfvem.mesh.csr import edge_key
-from dolfinx_sfvem.discretizations.polyhedral_space import FACE, VERTEX, PolyhedralSpace, _TET_EDGES
-from dolfinx_sfvem.mesh.polyhedron import energy_quadrature
+from dolfinx_sfvem.discretizations.polyhedral_space import FACE, TET_EDGES, PolyhedralSpace
 from dolfinx_sfvem.discretizations.polyhedron_loops import (
     PolyhedronTables, basis_tables, deformation_at, load_loop, projected_fields, residual_loop, tangent_loop)
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh
-from dolfinx_sfvem.discretizations.projection3d import L_MIN, build_projections_3d
-from dolfinx_sfvem.discretizations.vem import _AreaTerm, _Region, _residual_at, _tangent_at
+from dolfinx_sfvem.discretizations.projection3d import L_MIN
 
 #: degree of the quadrature of the forms on the faces of the load space: the loads on faces and the
 #: enclosed volume (P2 traces: dead loads exactly)
@@ -51,12 +48,18 @@ FACE_QUADRATURE_DEGREE = 4
 
 
 @dataclass
-class _CavityTerm(_AreaTerm):
-    """The 3D form of the polygons' :class:`_AreaTerm` (``cells``: the region's local polyhedra):
-    −p ∫ (J − 1) dΩ as −p ΔV, the volume swept by the region's faces
+class _CavityTerm(EnclosedTerm):
+    """The cavity's work on polyhedra: −p ΔV, the volume swept by the region's faces
     (:mod:`~dolfinx_sfvem.physics.enclosed_volume`), exact on the face projections, where the projected
-    gradient's ∫ det Π⁰_l∇u would depend on interior DOFs."""
+    gradient's ∫ det Π⁰_l∇u would depend on interior DOFs; its tangent is a form on the load space,
+    added to the assembled matrix."""
     volume: EnclosedVolume
+
+    def add_force(self, u: np.ndarray, scale: float, R: np.ndarray) -> float:
+        return self.volume.add_force(u, scale, R)
+
+    def add_tangent_matrix(self, u: np.ndarray, scale: float, A: PETSc.Mat) -> None:
+        self.volume.add_tangent(u, scale, A)
 
 
 class PolyhedralDiscretization(OnSFVEMNodes):
@@ -70,140 +73,60 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         Region tag -> energy.
     comm
         Communicator.
-    l
-        Degree of the gradient projection for every polyhedron; default the smallest sufficient
-        one per polyhedron (the rank test of docs/method.md §8).
-    l_min
-        Smallest degree the automatic choice tries.
-    quadrature
-        The energy rule (:func:`~dolfinx_sfvem.mesh.polyhedron.energy_quadrature`), exact for degree
-        2 l: ``"auto"`` (tensor rule on boxes, sub-tetrahedra elsewhere), ``"tetrahedra"`` or
-        ``"compressed"``.
+    l, l_min, quadrature
+        Passed to :class:`PolyhedralSpace`.
     verbose
         Print the space's summary on rank 0.
     """
 
-    method = "vem"
-    gdim = 3
-
     def __init__(self, mesh: PolyhedronMesh, materials: typing.Mapping[int, Energy], comm: MPI.Comm = MPI.COMM_WORLD,
                  *, l: int | None = None, l_min: int = L_MIN, quadrature: str = "auto", verbose: bool = True):
         check_materials(mesh.tags, materials, ("gauss",), SFVEM_NO_FEM_RULES)
-        self.comm = comm
-        self.materials = dict(sorted(materials.items()))
-        self.space = space = PolyhedralSpace(mesh, comm, verbose=verbose)
-        self.projections = proj = build_projections_3d(mesh.points, mesh.face_offsets, mesh.face_vertices,
-                                                       mesh.cell_offsets, mesh.cell_faces, mesh.cell_face_signs,
-                                                       cells=space.polyhedra, l=l, l_min=l_min)
-        self.quadrature = quadrature
-        self.regions = [_Region(tag, energy, compile_kernels(energy, comm, dim=3),
-                                np.flatnonzero(space.tags == tag).astype(np.int64))
-                        for tag, energy in self.materials.items()]
-        rules = [energy_quadrature(*mesh.polyhedron(c), 2 * int(proj.l[k]), quadrature)
-                 for k, c in enumerate(space.polyhedra)]
-        q_off = np.concatenate([[0], np.cumsum([len(w) for _, w in rules])]).astype(np.int64)
-        self.x_q = np.concatenate([x for x, _ in rules]) if rules else np.empty((0, 3))
-        w_q = np.concatenate([w for _, w in rules]) if rules else np.empty(0)
-        nd = np.diff(space.dof_offsets)
-        nphi = np.full(nd.size, 3, dtype=np.int64)          # rows of the table: grad phi, and grad grad phi
-        for reg in self.regions:
-            nphi[reg.cells] = 12 if reg.kernels.uses_gradient else 3
-        phi_off = np.concatenate([[0], np.cumsum(nd * np.diff(q_off) * nphi)]).astype(np.int64)
-        Phi = basis_tables(space.dof_offsets, q_off, self.x_q, proj.l, proj.centroid, proj.diameter,
-                           proj.Pi_m_offsets, proj.Pi_m, nphi, phi_off)
-        self._tables = PolyhedronTables(space.dof_offsets, space.dofs.astype(np.int64), q_off, w_q, nphi, phi_off, Phi)
-        self._coo_off = space.coo_offsets()
-        self._values = np.zeros(self._coo_off[-1] + 3 * space.n_owned_nodes)   # the diagonal's entries stay 0
-        self.terms: list[_Region] = []
-        self.global_nodes = space.global_nodes
+        super().__init__(PolyhedralSpace(mesh, comm, l=l, l_min=l_min, quadrature=quadrature, verbose=verbose),
+                         materials, comm)
+        space = self.space
         self.element_loops = None
-        self.node_point = np.where(space.node_kind == VERTEX, space.node_key, -1)
         self._host_by_key()
         self._output_mesh = CellMesh(space.fan.nodes, space.fan.tetrahedra,
                                      mesh.tags[space.fan.tetrahedron_cell], "tetrahedron", mesh.region_names)
         self._host_products: dict[int, tuple[PETSc.Mat, PETSc.Mat | None]] = {}
         self._T_petsc: PETSc.Mat | None = None
 
-    # ------------------------------------------------------------------ PETSc objects
-    def create_matrix(self) -> PETSc.Mat:
-        """AIJ matrix with the COO pattern of the polyhedron blocks and the owned diagonal."""
-        A = self.space.create_matrix()
-        A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-        return A
+    # ------------------------------------------------------------------ the polyhedra's hooks
+    def _basis_tables(self, nphi: np.ndarray, phi_off: np.ndarray) -> PolyhedronTables:
+        space, proj = self.space, self.space.projections
+        Phi = basis_tables(space.dof_offsets, space.q_offsets, space.x_q, proj.l, proj.centroid, proj.diameter,
+                           proj.Pi_m_offsets, proj.Pi_m, nphi, phi_off)
+        return PolyhedronTables(space.dof_offsets, space.dofs.astype(np.int64), space.q_offsets, space.w_q, nphi,
+                                phi_off, Phi)
 
-    # ------------------------------------------------------------------ assembly
-    def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> AssemblyInfo:
-        """Internal force b = ∂W/∂ũ (Eq. 52) at x (ghosts of x current), energy terms included."""
-        stats = self._internal_force(x, b, self.regions + self.terms)
-        min_J, rank = self.comm.allreduce((stats[1], self.comm.rank), op=MPI.MINLOC)
-        k = int(stats[2])
-        where = (int(self.space.polyhedra[k]), int(self.space.tags[k])) if k >= 0 else (-1, -1)
-        cell, tag = self.comm.bcast(where, root=rank)
-        return AssemblyInfo(self.comm.allreduce(stats[0], op=MPI.SUM), float(min_J), cell, tag)
-
-    def _add_force(self, reg: _Region | _CavityTerm, u: np.ndarray, R: np.ndarray, stats: np.ndarray,
-                   regularization: bool) -> None:
-        """R += ∂/∂ũ of one region's or term's energy (Eq. 52) at the nodal u
-        (:meth:`OnSFVEMNodes._internal_force`)."""
-        if isinstance(reg, _CavityTerm):
-            stats[0] += reg.volume.add_force(u, -reg.params["p"], R)
-            return
+    def _residual_loop(self, reg: Region, c: np.ndarray, u: np.ndarray, R: np.ndarray, stats: np.ndarray) -> None:
         k = reg.kernels
-        P_at, T_at = _residual_at(k)
-        c = k.pack_constants(reg.params if regularization else reg.energy.unregularized_params())
-        residual_loop(k.residual, c, k.F_offset, k.G_offset, P_at, T_at, reg.cells, self._tables, u, R, stats)
+        residual_loop(k.residual, c, k.F_offset, k.G_offset, *reg.residual_at, reg.cells, self._tables, u, R, stats)
 
-    def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Tangent (Eq. 56) at x into A, energy terms included, constraints not applied."""
-        values = self._values
-        with x.localForm() as xl:
-            u = xl.array_r.reshape(-1, 3)
-            for reg in self.regions + self.terms:
-                if isinstance(reg, _CavityTerm):
-                    continue
-                k = reg.kernels
-                D_at, A_at, B_at = _tangent_at(k)
-                tangent_loop(k.tangent, k.pack_constants(reg.params), k.F_offset, k.G_offset, D_at, A_at, B_at,
-                             reg.cells, self._tables, u, values, self._coo_off, reg.term is not None)
-            _compat.mat_set_values_coo(A, values, _compat.INSERT_VALUES)
-            A.assemble()
-            for reg in self.terms:
-                if isinstance(reg, _CavityTerm):
-                    reg.volume.add_tangent(u, -reg.params["p"], A)
+    def _tangent_loop(self, reg: Region, c: np.ndarray, u: np.ndarray, values: np.ndarray) -> None:
+        k = reg.kernels
+        tangent_loop(k.tangent, c, k.F_offset, k.G_offset, *reg.tangent_at, reg.cells, self._tables, u, values,
+                     self._coo_off, reg.term is not None)
 
-    # ------------------------------------------------------------------ energy terms
-    def _term(self, region: _Region, energy: Energy, term: EnergyTerm) -> _Region | _CavityTerm:
-        """The assembled form of an energy term (:meth:`OnSFVEMNodes.add_energy_term`): at the
-        region's quadrature points with Π⁰_l∇u, or a :class:`VolumeWork` term −p ∫ (J − 1) dΩ as
-        −p ΔV from the region's faces (:class:`_CavityTerm`)."""
-        if isinstance(energy, VolumeWork):
-            return _CavityTerm(region.tag, energy, region.cells, term, EnclosedVolume(self, region.tag))
-        return _Region(region.tag, energy, compile_kernels(energy, self.comm, dim=3), region.cells, term)
+    def _load_loop(self, f_q: np.ndarray, F: np.ndarray) -> None:
+        proj = self.space.projections
+        load_loop(self._tables, self.space.x_q, proj.centroid, proj.diameter, proj.Pi_nabla_offsets, proj.Pi_nabla,
+                  f_q, F)
 
-    # ------------------------------------------------------------------ loads and fields
-    def body_force_vector(self, f: typing.Callable[[np.ndarray], np.ndarray]) -> PETSc.Vec:
-        """∫ f · Π^∇_2 v dΩ, f(x) (3, n) -> (3, n) per unit reference volume."""
-        proj = self.projections
-        f_q = np.ascontiguousarray(np.broadcast_to(np.asarray(f(self.x_q.T), dtype=np.float64),
-                                                   (3, self.x_q.shape[0])).T)
-        F = self.create_vector()
-        with F.localForm() as fl:
-            fl.set(0.0)
-            load_loop(self._tables, self.x_q, proj.centroid, proj.diameter, proj.Pi_nabla_offsets, proj.Pi_nabla, f_q,
-                      fl.array.reshape(-1, 3))
-        F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return F
+    def _projected_fields(self, u: np.ndarray, u_q: np.ndarray, grad_q: np.ndarray) -> None:
+        proj = self.space.projections
+        projected_fields(self._tables, self.space.x_q, proj.centroid, proj.diameter, proj.Pi_nabla_offsets,
+                         proj.Pi_nabla, u, u_q, grad_q)
 
-    def quadrature_fields(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """x_q (n_q, 3), weights (n_q,), Π^∇_2 u (n_q, 3) and Π⁰_l∇u (n_q, 3, 3) at the energy's
-        quadrature points (the fields of :meth:`error_norms`)."""
-        proj = self.projections
-        u_q, grad_q = np.empty((self.x_q.shape[0], 3)), np.empty((self.x_q.shape[0], 3, 3))
-        with x.localForm() as xl:
-            projected_fields(self._tables, self.x_q, proj.centroid, proj.diameter, proj.Pi_nabla_offsets,
-                             proj.Pi_nabla, xl.array_r.reshape(-1, 3), u_q, grad_q)
-        return self.x_q, self._tables.w_q, u_q, grad_q
+    def _folds(self, u: np.ndarray) -> None:
+        """None: the polyhedra's boundaries are not checked for folds (the guard is J > 0)."""
+        return None
 
+    def _enclosed_term(self, region: Region, energy: Energy, term: EnergyTerm) -> _CavityTerm:
+        return _CavityTerm(region.tag, energy, region.cells, term, EnclosedVolume(self, region.tag))
+
+    # ------------------------------------------------------------------ fields
     def dof_values(self, value: typing.Callable[[np.ndarray], np.ndarray], dofs: np.ndarray) -> np.ndarray:
         """Values of ``value(x) -> (n,)`` at the unknowns ``dofs`` of one component: point values at
         vertices and edge midpoints, means on the faces and polyhedra."""
@@ -217,7 +140,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
     def displacement_at(self, x: PETSc.Vec, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The host displacement (module docstring) at reference ``points`` (n, 3) inside this rank's
         polyhedra: (values (n, 3), found (n,) bool)."""
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        points = np.asarray(points, dtype=np.float64).reshape(-1, self.gdim)
         local = _compat.locate_cells(self.space.mesh, points, _compat.num_owned_cells(self.space.mesh))
         found = local >= 0
         values = np.zeros((len(points), 3))
@@ -255,7 +178,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
     def to_host(self, u: np.ndarray) -> np.ndarray:
         """Values (n_local_W · 3,) on :attr:`load_space` from the nodal values u (n_local_nodes, 3):
         those of the owned tetrahedra (the caller scatters them to the ghosts)."""
-        return (self._trace @ np.asarray(u).reshape(-1, 3)).ravel()
+        return (self._trace @ np.asarray(u).reshape(-1, self.gdim)).ravel()
 
     def add_from_host(self, host: PETSc.Vec, f: np.ndarray) -> None:
         """f (n_local_nodes, 3) += Tᵀ host: an assembled (not yet accumulated) vector of
@@ -263,7 +186,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         caller). ``host``'s ghost contributions are accumulated here."""
         host.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         n = self.load_space.dofmap.index_map.size_local
-        f.reshape(-1, 3)[:] += self._trace[:n].T @ host.getArray(readonly=True).reshape(-1, 3)
+        f.reshape(-1, self.gdim)[:] += self._trace[:n].T @ host.getArray(readonly=True).reshape(-1, self.gdim)
 
     def nodes_of_host(self, nodes: np.ndarray) -> np.ndarray:
         """The SFVEM nodes hosted by the local P2 nodes ``nodes`` of :attr:`V` (those that host one)."""
@@ -314,7 +237,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         inp = _compat.input_node_index(mesh)[_compat.cell_geometry_nodes(mesh)]
         self.host_key = np.full(im.size_local + im.num_ghosts, -1, dtype=np.int64)
         self.host_key[dofs[:, :4]] = inp
-        self.host_key[dofs[:, 4:]] = self.midpoint_keys(inp[:, _TET_EDGES[:, 0]], inp[:, _TET_EDGES[:, 1]])
+        self.host_key[dofs[:, 4:]] = self.midpoint_keys(inp[:, TET_EDGES[:, 0]], inp[:, TET_EDGES[:, 1]])
         self._n_owned_host = im.size_local
 
     def midpoint_keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -326,7 +249,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
     def output_state(self, v: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
         """The host values (T v) at the owned host nodes with their keys: what the contact checks read."""
         with v.localForm() as vl:
-            values = self.space.p2_interpolation(self.projections)[:self._n_owned_host] @ vl.array_r.reshape(-1, 3)
+            values = self.space.p2_interpolation()[:self._n_owned_host] @ vl.array_r.reshape(-1, self.gdim)
         return self.host_key[:self._n_owned_host].copy(), values
 
     def output_forces(self, f: PETSc.Vec) -> tuple[np.ndarray, np.ndarray]:
@@ -335,7 +258,7 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         face's mean DOF, zero at the other host nodes (the resultant on each face is kept)."""
         space = self.space
         with f.localForm() as fl:
-            nodal = fl.array_r.reshape(-1, 3)
+            nodal = fl.array_r.reshape(-1, self.gdim)
             values = np.zeros((self._n_owned_host, 3))
             hosted = np.flatnonzero(space.node_kind <= FACE)
             p2 = space.p2_node[hosted]
@@ -370,15 +293,6 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         at_point = keys < self.space.fan.nodes.shape[0]
         return keys[at_point], values[at_point]
 
-    def output_function(self, x: PETSc.Vec, u=None):
-        """The host displacement as a P2 DOLFINx Function on the fan mesh."""
-        return self.space.to_function(x, self.projections, u)
-
-    @property
-    def dolfinx_mesh(self) -> dolfinx.mesh.Mesh:
-        """The fan mesh: the DOLFINx mesh of the output and of the load space."""
-        return self.space.mesh
-
     def cell_tags(self):
         """Region tag of every local fan tetrahedron (its polyhedron's)."""
         return _compat.create_cell_tags(self.space.mesh, self.cell_tag)
@@ -387,14 +301,14 @@ class PolyhedralDiscretization(OnSFVEMNodes):
         """F and P at the centre of every owned fan tetrahedron, from Π⁰_l∇u (and its gradient) of
         its polyhedron and the region's compiled kernel."""
         from dolfinx_sfvem.discretizations.compiled_energy import tabulate
-        space, proj = self.space, self.projections
+        space, proj = self.space, self.space.projections
         n = _compat.num_owned_cells(space.mesh)
         centre = space.mesh.geometry.x[_compat.cell_geometry_nodes(space.mesh)[:n], :3].mean(axis=1)
-        cell = np.searchsorted(space.polyhedra, space.cell_polyhedron[:n])
+        cell = np.searchsorted(space.cells, space.cell_polyhedron[:n])
         F, G = np.empty((n, 3, 3)), np.empty((n, 3, 3, 3))
         with x.localForm() as xl:
             deformation_at(np.ascontiguousarray(centre), cell, self._tables, proj.l, proj.centroid, proj.diameter,
-                           proj.Pi_m_offsets, proj.Pi_m, xl.array_r.reshape(-1, 3), F, G)
+                           proj.Pi_m_offsets, proj.Pi_m, xl.array_r.reshape(-1, self.gdim), F, G)
         P = np.zeros((n, 3, 3))
         tag = space.tags[cell]
         for reg in self.regions:
@@ -404,11 +318,11 @@ class PolyhedralDiscretization(OnSFVEMNodes):
                 c[k.F_offset:k.F_offset + 9] = F[t].ravel()
                 if k.uses_gradient:
                     c[k.G_offset:k.G_offset + 27] = G[t].ravel()
-                P[t] = tabulate(k.residual, k.n_residual, c)[_residual_at(k)[0]:][:9].reshape(3, 3)
+                P[t] = tabulate(k.residual, k.n_residual, c)[reg.residual_at[0]:][:9].reshape(3, 3)
         return F, P
 
     def describe(self) -> dict:
         """Mesh facts for summary.json."""
-        l, counts = np.unique(np.concatenate(self.comm.allgather(self.projections.l)), return_counts=True)
-        return {"polyhedra": int(self.space.polyhedron_mesh.n_cells), "quadrature": self.quadrature,
+        l, counts = np.unique(np.concatenate(self.comm.allgather(self.space.projections.l)), return_counts=True)
+        return {"polyhedra": int(self.space.polyhedron_mesh.n_cells), "quadrature": self.space.quadrature,
                 "projection_order_histogram": {str(k): int(n) for k, n in zip(l, counts)}}

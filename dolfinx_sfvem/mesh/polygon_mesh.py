@@ -499,6 +499,8 @@ class PolygonMesh:
 
     Attributes
     ----------
+    gdim : int
+        The dimension of the points: 2.
     points : (n_points, 2) float64
     offsets : (n_polygons + 1,) int64
         Polygon i has vertices ``vertices[offsets[i]:offsets[i+1]]``, counter-clockwise.
@@ -542,6 +544,8 @@ class PolygonMesh:
         overlapping, an edge midpoint inside another polygon, the same directed edge in two
         polygons, an unrepaired T-junction; or naming the malformed argument.
     """
+
+    gdim = 2
 
     def __init__(self, points: npt.ArrayLike, polygons: Iterable[npt.ArrayLike], tags: npt.ArrayLike | None = None, *,
                  insert_hanging_nodes: bool = True) -> None:

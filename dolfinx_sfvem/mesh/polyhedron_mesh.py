@@ -325,6 +325,8 @@ class PolyhedronMesh:
 
     Attributes
     ----------
+    gdim : int
+        The dimension of the points: 3.
     points, face_offsets, face_vertices, cell_offsets, cell_faces, cell_face_signs, tags, region_names
         As given (int64 arrays, ``tags`` int64).
     tol : float
@@ -340,6 +342,8 @@ class PolyhedronMesh:
     ValueError
         Naming the cell and the defect (module docstring).
     """
+
+    gdim = 3
 
     def __init__(self, points: npt.ArrayLike, face_offsets: npt.ArrayLike, face_vertices: npt.ArrayLike,
                  cell_offsets: npt.ArrayLike, cell_faces: npt.ArrayLike, cell_face_signs: npt.ArrayLike,

@@ -470,7 +470,7 @@ class LoadPath:
         if not info.admissible:
             raise ValueError(f"inverted or degenerate element in the initial configuration: J = {info.min_J:.3e} "
                              f"in cell {info.min_J_cell} of region {info.min_J_tag}; {info.folded} folded "
-                             f"element(s), e.g. {info.folded_polygon}")
+                             f"element(s), e.g. {info.folded_cell}")
         gap = p.contact_gap()
         if gap.overlapping:
             raise ValueError(f"the solids overlap in the initial configuration: {gap.describe()}")

@@ -240,7 +240,7 @@ def state_failure(info: AssemblyInfo) -> list[str]:
         why.append(f"J = {info.min_J:.3e} in cell {info.min_J_cell} of region {info.min_J_tag}")
     if info.folded:
         why.append(f"{info.folded} folded element(s) (turned over at a vertex or edge midpoint), e.g. "
-                   f"{info.folded_polygon}")
+                   f"{info.folded_cell}")
     if not np.isfinite(info.energy):
         why.append("non-finite energy")
     return why
