@@ -53,7 +53,8 @@ from dolfinx_sfvem.discretizations.monomials3d import exponents3
 from dolfinx_sfvem.mesh.polyhedron import tetrahedron_rule
 from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.mesh.polyhedron_mesh import PolyhedronMesh, plane_coordinates
-from dolfinx_sfvem.discretizations.projection import ProjectionBlocks, pi_nabla_2, polygon_geometry
+from dolfinx_sfvem.discretizations.cell_projection import Projections
+from dolfinx_sfvem.discretizations.projection import pi_nabla_2, polygon_geometry
 from dolfinx_sfvem.discretizations.quadrature import triangle_rule
 from dolfinx_sfvem.discretizations.space import EdgeLookup, SFVEMNodes, number_sfvem_nodes
 
@@ -392,7 +393,7 @@ class PolyhedralSpace(SFVEMNodes):
             xl.array[:] = values.ravel()
         return x
 
-    def to_function(self, x: PETSc.Vec, projections: ProjectionBlocks,
+    def to_function(self, x: PETSc.Vec, projections: Projections,
                     u: dolfinx.fem.Function | None = None) -> dolfinx.fem.Function:
         """The P2 :class:`dolfinx.fem.Function` of an SFVEM state (output, loads on faces): the values
         of :meth:`p2_interpolation` at the P2 nodes, continuous across faces.
@@ -415,7 +416,7 @@ class PolyhedralSpace(SFVEMNodes):
         u.x.scatter_forward()
         return u
 
-    def p2_interpolation(self, projections: ProjectionBlocks) -> scipy.sparse.csr_matrix:
+    def p2_interpolation(self, projections: Projections) -> scipy.sparse.csr_matrix:
         """The sparse map T (n_local_p2, n_local_nodes) from SFVEM node values to the values at the P2
         nodes of the owned fan tetrahedra (rows of the other P2 nodes are zero); built once.
 
