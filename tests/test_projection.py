@@ -9,8 +9,10 @@ and test_local_refinement use them too.
 import numpy as np
 import pytest
 
+from dolfinx_sfvem.discretizations.cell_projection import (
+    RANK_TOL, cholesky, n_monomials_in, null_space_dimensions, orthonormal_moments)
 from dolfinx_sfvem.discretizations.monomials import exponents, gauss_legendre, n_monomials, polygon_monomial_integrals
-from dolfinx_sfvem.discretizations.cell_projection import RANK_TOL, cholesky, null_space_dimensions, orthonormal_moments
+from dolfinx_sfvem.discretizations.monomials3d import n_monomials3
 from dolfinx_sfvem.discretizations.projection import build_projections, pi_nabla_2, polygon_geometry, projection_system
 
 
@@ -232,6 +234,12 @@ def test_bulk_build_equals_per_polygon_build(as_csr, build_one, polygon_moments,
         assert part.l[j] == bulk.l[e]
         np.testing.assert_array_equal(part.Pi_m_of(j), bulk.Pi_m_of(e))
         np.testing.assert_array_equal(part.Pi_nabla_of(j), bulk.Pi_nabla_of(e))
+        np.testing.assert_array_equal(part.vertices_of(j), order[vertices[offsets[e]:offsets[e + 1]]])
+
+
+def test_monomial_count_in_any_dimension():
+    assert [n_monomials_in(l, 2) for l in range(11)] == [n_monomials(l) for l in range(11)]
+    assert [n_monomials_in(l, 3) for l in range(11)] == [n_monomials3(l) for l in range(11)]
 
 
 def test_histogram_and_summary(polygons, zero_eigenvalue_table, as_csr):
