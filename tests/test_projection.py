@@ -9,10 +9,11 @@ and test_local_refinement use them too.
 import numpy as np
 import pytest
 
+from dolfinx_sfvem.discretizations.cell_projection import (
+    RANK_TOL, cholesky, n_monomials_in, null_space_dimensions, orthonormal_moments)
 from dolfinx_sfvem.discretizations.monomials import exponents, gauss_legendre, n_monomials, polygon_monomial_integrals
-from dolfinx_sfvem.discretizations.projection import (
-    RANK_TOL, build_projections, cholesky, null_space_dimensions, orthonormal_moments, pi_nabla_2, polygon_geometry,
-    projection_system)
+from dolfinx_sfvem.discretizations.monomials3d import n_monomials3
+from dolfinx_sfvem.discretizations.projection import build_projections, pi_nabla_2, polygon_geometry, projection_system
 
 
 # --------------------------------------------------------------------------- helpers
@@ -143,24 +144,24 @@ def test_strain_criterion_is_stricter_than_gradient_criterion(polygons, build_on
     gradient_nullity, strain_nullity = svd_null_space_dimensions(U, 3)
     assert gradient_nullity == 1 and strain_nullity > 3
     assert build_one(U).l[0] > 3
-    with pytest.raises(ValueError, match=rf"polygon 0: l=3 is rank-deficient \({strain_nullity} zero-strain modes"):
+    with pytest.raises(ValueError, match=rf"cell 0: l=3 is rank-deficient \({strain_nullity} zero-strain modes"):
         build_one(U, l=3)
 
 
 def test_rank_deficient_user_l_names_polygon(polygons, as_csr):
     points, offsets, vertices = as_csr([polygons["square"], polygons["square, 3 hanging nodes"]])
-    with pytest.raises(ValueError, match=r"polygon 1: l=3 is rank-deficient .*smallest sufficient l is 6"):
+    with pytest.raises(ValueError, match=r"cell 1: l=3 is rank-deficient .*smallest sufficient l is 6"):
         build_projections(points, offsets, vertices, l=3)
-    with pytest.raises(ValueError, match=r"polygon 1: l=5 is rank-deficient"):
+    with pytest.raises(ValueError, match=r"cell 1: l=5 is rank-deficient"):
         build_projections(points, offsets, vertices, l=[3, 5])
     assert build_projections(points, offsets, vertices, l=[3, 6]).l.tolist() == [3, 6]
-    with pytest.raises(ValueError, match=r"polygon 0: l=2 is rank-deficient .*smallest sufficient l is 3"):
+    with pytest.raises(ValueError, match=r"cell 0: l=2 is rank-deficient .*smallest sufficient l is 3"):
         build_projections(points, offsets, vertices, l=2)
 
 
 def test_l_max_guard(polygons, as_csr):
     points, offsets, vertices = as_csr([polygons["square"], polygons["square, 3 hanging nodes"]])
-    with pytest.raises(ValueError, match=r"polygon 1: no l <= l_max=5 is sufficient"):
+    with pytest.raises(ValueError, match=r"cell 1: no l <= l_max=5 is sufficient"):
         build_projections(points, offsets, vertices, l_max=5)
     with pytest.raises(ValueError, match=r"l=11 .*outside \[1, l_max=10\]"):
         build_projections(points, offsets, vertices, l=11)
@@ -177,7 +178,7 @@ def test_bad_polygons_are_named(polygons, as_csr, build_one):
     with pytest.raises(ValueError, match=r"polygon 0: two consecutive vertices coincide"):
         build_projections(*as_csr([np.vstack([square[:1], square])]))
     thin = np.array([[0.0, 0.0], [1.0, 1.0], [0.5, 0.5 + 1e-9]])
-    with pytest.raises(ValueError, match=r"polygon 0: the P_\d+ monomial mass matrix is numerically singular"):
+    with pytest.raises(ValueError, match=r"cell 0: the P_\d+ monomial mass matrix is numerically singular"):
         build_one(thin)
 
 
@@ -215,17 +216,17 @@ def test_bulk_build_equals_per_polygon_build(as_csr, build_one, polygon_moments,
     shuffled = np.empty_like(points)
     shuffled[order] = points
     bulk = build_projections(shuffled, offsets, order[vertices])
-    assert bulk.n_polygons == len(shapes)
+    assert bulk.n_cells == len(shapes)
     assert sum(bulk.histogram().values()) == len(shapes)
     for j, xy in enumerate(shapes):
         single = build_one(xy)
         assert bulk.l[j] == single.l[0]
         np.testing.assert_allclose(bulk.centroid[j], single.centroid[0], rtol=1e-14)
-        assert bulk.diameter[j] == single.diameter[0] and bulk.area[j] == single.area[0]
+        assert bulk.diameter[j] == single.diameter[0] and bulk.measure[j] == single.measure[0]
         np.testing.assert_allclose(bulk.Pi_nabla_of(j), single.Pi_nabla_of(0), rtol=1e-14, atol=0)
         np.testing.assert_allclose(bulk.Pi_m_of(j), single.Pi_m_of(0), rtol=1e-14, atol=0)
         assert bulk.Pi_m_of(j).shape == (2, n_monomials(int(bulk.l[j])), 2 * len(xy) + 1)
-        np.testing.assert_allclose(bulk.area[j], polygon_moments(xy - xy[0])[0], rtol=1e-12)
+        np.testing.assert_allclose(bulk.measure[j], polygon_moments(xy - xy[0])[0], rtol=1e-12)
     # a subset in another order, indexed 0..n-1 in that order
     subset = rng.choice(len(shapes), 40, replace=False)
     part = build_projections(shuffled, offsets, order[vertices], polygons=subset)
@@ -233,6 +234,12 @@ def test_bulk_build_equals_per_polygon_build(as_csr, build_one, polygon_moments,
         assert part.l[j] == bulk.l[e]
         np.testing.assert_array_equal(part.Pi_m_of(j), bulk.Pi_m_of(e))
         np.testing.assert_array_equal(part.Pi_nabla_of(j), bulk.Pi_nabla_of(e))
+        np.testing.assert_array_equal(part.vertices_of(j), order[vertices[offsets[e]:offsets[e + 1]]])
+
+
+def test_monomial_count_in_any_dimension():
+    assert [n_monomials_in(l, 2) for l in range(11)] == [n_monomials(l) for l in range(11)]
+    assert [n_monomials_in(l, 3) for l in range(11)] == [n_monomials3(l) for l in range(11)]
 
 
 def test_histogram_and_summary(polygons, zero_eigenvalue_table, as_csr):

@@ -8,8 +8,9 @@ rank under rigid motions and scaling. The test polyhedra are conftest.py's ``pol
 import numpy as np
 import pytest
 
+from dolfinx_sfvem.discretizations.cell_projection import RANK_TOL, null_space_dimensions
 from dolfinx_sfvem.discretizations.monomials3d import exponents3
-from dolfinx_sfvem.discretizations.projection import RANK_TOL, null_space_dimensions, pi_nabla_2, polygon_geometry
+from dolfinx_sfvem.discretizations.projection import pi_nabla_2, polygon_geometry
 from dolfinx_sfvem.discretizations.projection3d import (
     build_projections_3d, face_h1_projection, interpolation_dofs, polyhedron_projections)
 
@@ -188,10 +189,14 @@ def test_bulk_build_equals_per_polyhedron_build(octree_polyhedra):
             face = [local[v] for v in face_vertices[face_offsets[f]:face_offsets[f + 1]]]
             faces.append(np.array(face if s > 0 else face[::-1]))
         P = polyhedron_projections(points[vertices], faces)
-        assert B.l[j] == P.l and B.volume[j] == pytest.approx(P.volume)
+        assert B.l[j] == P.l and B.measure[j] == pytest.approx(P.volume)
         np.testing.assert_allclose(B.Pi_nabla_of(j), P.Pi_nabla, rtol=0, atol=1e-12 * np.abs(P.Pi_nabla).max())
         np.testing.assert_allclose(B.Pi_m_of(j), P.Pi_m, rtol=0, atol=1e-12 * np.abs(P.Pi_m).max())
         # the same polyhedron as given, in its own numbering: the same l and volume
         assert polyhedron_projections(*cells[c]).l == P.l
-    with pytest.raises(ValueError, match="cell 0: l=3 is rank-deficient"):
+    again = build_projections_3d(points, face_offsets, face_vertices, cell_offsets, cell_faces, signs, cells=chosen,
+                                 l=B.l)     # one l per cell, as in 2D
+    np.testing.assert_array_equal(again.Pi_m, B.Pi_m)
+    with pytest.raises(ValueError, match=r"cell 0: l=3 is rank-deficient \(\d+ zero-strain modes where the 6 rigid "
+                                         r"motions are expected.*; the smallest sufficient l is \d+"):
         build_projections_3d(points, face_offsets, face_vertices, cell_offsets, cell_faces, signs, l=3)

@@ -11,10 +11,10 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
+from dolfinx_sfvem.discretizations.cell_projection import cholesky, gradient_projection, orthonormal_moments
 from dolfinx_sfvem.discretizations.monomials import n_monomials
 from dolfinx_sfvem.discretizations.projection import (
-    build_projections, cholesky, gradient_projection, orthonormal_moments, pi_nabla_2, polygon_geometry,
-    projection_system, validate_polygon)
+    build_projections, pi_nabla_2, polygon_geometry, projection_system, validate_polygon)
 from dolfinx_sfvem.discretizations.projection3d import polyhedron_projections
 
 

@@ -17,40 +17,30 @@ Results per polygon
     grad v(x) = [m(x) . Pi_m[0] v~, m(x) . Pi_m[1] v~] (Eq. 43) and the second derivatives
     d2v/dx_c dx_d = (dm/dx_d)(x) . Pi_m[c] v~ (Eq. 45, not symmetrised).
 
-The per-polygon functions are ``numba.njit``; :func:`build_projections` loops over all
-polygons inside numba and returns the flattened :class:`Projections`.
+The per-polygon functions are ``numba.njit``. What polygons and polyhedra share, the rank check, the
+choice of l and the loop over the cells, is :mod:`~dolfinx_sfvem.discretizations.cell_projection`:
+this module gives it a polygon through the overloads of ``prepare_cell`` (for
+:class:`PolygonCells`) and ``cell_system`` (for :class:`PolygonSystem`), and
+:func:`build_projections` returns its :class:`~dolfinx_sfvem.discretizations.cell_projection.Projections`.
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 import numpy.typing as npt
+from numba.extending import overload
 
+from dolfinx_sfvem.discretizations.cell_projection import (
+    GEOMETRY_STATUS, OK, RANK_TOL, Projections, build_cell_projections, build_cells, cell_system, is_tuple_of,
+    prepare_cell)
 from dolfinx_sfvem.discretizations.monomials import (
     evaluate_monomials, exponents, gauss_legendre, monomial_index, n_monomials, polygon_monomial_integrals)
 
-#: Relative tolerance on singular values (sigma <= RANK_TOL * sigma_max counts as zero) of the
-#: projected-gradient operators in the L^2(E)-orthonormal polynomial basis, applied as
-#: RANK_TOL^2 to the eigenvalues of their Gram matrices. Measured on the test polygons for
-#: l = 2..10: exact null-space modes at lambda / lambda_max <= 1e-15 (sigma <= 3e-8), the smallest
-#: genuine ones at lambda / lambda_max >= 7e-6 (sigma >= 2.6e-3); RANK_TOL^2 = 9e-12 lies
-#: between with more than three orders of magnitude on both sides. Genuinely weak modes below
-#: RANK_TOL do occur: an edge shorter than about 1e-5 h_E, or collinear vertices a few per cent
-#: of h_E apart (sigma ~ 1e-6 for three hanging nodes 0.02 h_E apart at l = 6); such a polygon
-#: gets a larger l or, beyond l_max, an error.
-RANK_TOL = 3e-6
 
-#: Smallest admissible relative Cholesky pivot of the monomial mass matrix, d_j / M_jj (the
-#: squared sine of the angle between m_j and the span of the monomials before it). Honest
-#: polygons stay above 1e-7 up to l = 10; below 1e-12 the orthonormalised moments lose more than
-#: 6 digits, so null-space modes could no longer be told from RANK_TOL (thin, rotated slivers).
-MASS_PIVOT_TOL = 1e-12
-
-# status of a polygon after the l-selection pass
-_OK, _NOT_CCW, _ZERO_EDGE, _SINGULAR_MASS, _RANK_DEFICIENT = 0, 1, 2, 3, 4
+# geometry failures of a polygon (cell_projection.GEOMETRY_STATUS and on)
+_NOT_CCW, _ZERO_EDGE = GEOMETRY_STATUS, GEOMETRY_STATUS + 1
 
 
 # --------------------------------------------------------------------------- geometry
@@ -91,13 +81,13 @@ def polygon_geometry(xy: np.ndarray) -> tuple[float, np.ndarray, float]:
 
 @numba.njit(cache=True)
 def _polygon_status(xy: np.ndarray) -> int:
-    """_OK, or why the vertices are not a counter-clockwise polygon with N >= 3 distinct corners."""
+    """OK, or why the vertices are not a counter-clockwise polygon with N >= 3 distinct corners."""
     N = xy.shape[0]
     for i in range(N):
         if xy[i, 0] == xy[(i + 1) % N, 0] and xy[i, 1] == xy[(i + 1) % N, 1]:
             return _ZERO_EDGE
     area, _, _ = polygon_geometry(xy)
-    return _OK if area > 0.0 else _NOT_CCW
+    return OK if area > 0.0 else _NOT_CCW
 
 
 # --------------------------------------------------------------------------- Pi^nabla_2
@@ -239,405 +229,85 @@ def projection_system(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.
     return M, R
 
 
-@numba.njit(cache=True)
-def cholesky(M: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Lower Cholesky factor L of M = L L^T, and False if a relative pivot is below MASS_PIVOT_TOL."""
-    n = M.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        d = M[j, j]
-        for k in range(j):
-            d -= L[j, k] ** 2
-        if not d > MASS_PIVOT_TOL * M[j, j]:
-            return L, False
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, n):
-            s = M[i, j]
-            for k in range(j):
-                s -= L[i, k] * L[j, k]
-            L[i, j] = s / L[j, j]
-    return L, True
 
 
-@numba.njit(cache=True)
-def orthonormal_moments(L: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Q[c] = L^{-1} R[c]: the projected gradient in the L^2(E)-orthonormal basis L^{-1} m.
-
-    With M = L L^T, ||Pi^0_l d_c v||_{L^2(E)} = |Q[c] v~| for every v, so singular values
-    of Q do not depend on the (ill-conditioned) monomial basis.
-
-    Parameters
-    ----------
-    L : (nl, nl) float64
-        Cholesky factor of M.
-    R : (D, nl, nd) float64
-        From :func:`projection_system` (D = 2) or the polyhedron's system (D = 3).
-
-    Returns
-    -------
-    Q : (D, nl, nd) float64
-    """
-    nl = L.shape[0]
-    Q = R.copy()
-    for c in range(R.shape[0]):
-        for a in range(nl):  # forward substitution
-            for b in range(a):
-                for k in range(Q.shape[2]):
-                    Q[c, a, k] -= L[a, b] * Q[c, b, k]
-            for k in range(Q.shape[2]):
-                Q[c, a, k] /= L[a, a]
-    return Q
-
-
-@numba.njit(cache=True)
-def gradient_projection(L: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Pi_m[c] = M^{-1} R[c] = L^{-T} Q[c], the monomial coefficients of Pi^0_l nabla (Eq. 43).
-
-    Returns
-    -------
-    Pi_m : (D, nl, nd) float64
-    """
-    nl = L.shape[0]
-    Pi_m = Q.copy()
-    for c in range(Q.shape[0]):
-        for a in range(nl - 1, -1, -1):  # back substitution with L^T
-            for b in range(a + 1, nl):
-                for k in range(Q.shape[2]):
-                    Pi_m[c, a, k] -= L[b, a] * Pi_m[c, b, k]
-            for k in range(Q.shape[2]):
-                Pi_m[c, a, k] /= L[a, a]
-    return Pi_m
-
-
-@numba.njit(cache=True)
-def _tridiagonal_form(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Householder reduction of a symmetric matrix to tridiagonal form (same eigenvalues).
-
-    Only the lower triangle of A is read.
-
-    Returns
-    -------
-    d : (n,) float64
-        Diagonal.
-    e : (n-1,) float64
-        Off-diagonal.
-    """
-    A = A.copy()  # only the lower triangle is used and updated
-    n = A.shape[0]
-    e = np.zeros(max(n - 1, 0))
-    v = np.zeros(n)
-    p = np.zeros(n)
-    for k in range(n - 2):
-        # reflector H = I - 2 v v^T (|v| = 1) mapping A[k+1:, k] to alpha e_1
-        norm2 = 0.0
-        for i in range(k + 1, n):
-            norm2 += A[i, k] ** 2
-        alpha = -np.sqrt(norm2) if A[k + 1, k] > 0.0 else np.sqrt(norm2)
-        e[k] = alpha
-        v_norm2 = norm2 - 2.0 * alpha * A[k + 1, k] + alpha ** 2  # |A[k+1:, k] - alpha e_1|^2
-        if v_norm2 == 0.0:
-            continue
-        for i in range(k + 1, n):
-            v[i] = A[i, k] / np.sqrt(v_norm2)
-        v[k + 1] -= alpha / np.sqrt(v_norm2)
-        # A22 <- H A22 H = A22 - 2 v w^T - 2 w v^T with p = A22 v, w = p - (v.p) v
-        vp = 0.0
-        for i in range(k + 1, n):
-            p[i] = 0.0
-            for j in range(k + 1, i + 1):
-                p[i] += A[i, j] * v[j]
-            for j in range(i + 1, n):
-                p[i] += A[j, i] * v[j]
-            vp += v[i] * p[i]
-        for i in range(k + 1, n):
-            p[i] -= vp * v[i]
-        for i in range(k + 1, n):
-            for j in range(k + 1, i + 1):
-                A[i, j] -= 2.0 * (v[i] * p[j] + p[i] * v[j])
-    if n >= 2:
-        e[n - 2] = A[n - 1, n - 2]
-    return np.diag(A).copy(), e
-
-
-@numba.njit(cache=True)
-def _eigenvalues_below(d: np.ndarray, e: np.ndarray, x: float) -> int:
-    """Number of eigenvalues < x of the symmetric tridiagonal (d, e) (Sturm sequence / inertia)."""
-    count = 0
-    q = 1.0
-    for i in range(d.size):
-        q = d[i] - x - (e[i - 1] ** 2 / q if i > 0 else 0.0)
-        if q == 0.0:
-            q = -1e-300
-        if q < 0.0:
-            count += 1
-    return count
-
-
-@numba.njit(cache=True)
-def count_zero_eigenvalues(A: np.ndarray, tol: float) -> int:
-    """Number of eigenvalues lambda <= tol * lambda_max of a symmetric positive semi-definite A.
-
-    Tridiagonal form plus Sylvester's law of inertia; lambda_max by bisection to 1e-3
-    relative. (A fraction of the cost of a LAPACK eigen- or singular-value solve for these
-    sizes with Debian's reference LAPACK.)
-    """
-    d, e = _tridiagonal_form(A)
-    n = d.size
-    upper = 0.0  # Gershgorin bound, lambda_max <= upper <= 3 lambda_max
-    for i in range(n):
-        upper = max(upper, d[i] + (abs(e[i - 1]) if i > 0 else 0.0) + (abs(e[i]) if i < n - 1 else 0.0))
-    lower = 0.0
-    while upper - lower > 1e-3 * upper:
-        middle = 0.5 * (lower + upper)
-        if _eigenvalues_below(d, e, middle) == n:
-            upper = middle
-        else:
-            lower = middle
-    return _eigenvalues_below(d, e, tol * upper)
-
-
-@numba.njit(cache=True)
-def null_space_dimensions(Q: np.ndarray, tol: float) -> tuple[int, int]:
-    """Null-space dimensions of the scalar projected gradient and of the projected small strain.
-
-    In the orthonormal basis of :func:`orthonormal_moments`, with D = Q.shape[0] the space
-    dimension, int_E |Pi grad v|^2 = v~^T (sum_c Q_c^T Q_c) v~ and
-    int_E sym(Pi grad u) : sym(Pi grad u) = u~^T A u~ with the D x D blocks
-    A_cc = Q_c^T Q_c + 1/2 sum_{d != c} Q_d^T Q_d and A_cd = Q_d^T Q_c / 2 (c != d)
-    (the linear-elastic element stiffness for mu = 1/2, lambda = 0). A mode counts as zero when
-    its eigenvalue is <= tol^2 lambda_max, i.e. its singular value in the projected
-    operator is <= tol sigma_max.
-
-    Parameters
-    ----------
-    Q : (D, nl, nd) float64
-        From :func:`orthonormal_moments`, D = 2 on a polygon, 3 on a polyhedron.
-    tol : float
-        Relative singular-value tolerance.
-
-    Returns
-    -------
-    gradient_nullity : int
-        dim ker(v~ -> Pi^0_l grad v) on the nd scalar DOFs; 1 (the constants) is right.
-    strain_nullity : int
-        dim ker(u~ -> sym Pi^0_l grad u) on the D nd vector DOFs (u_x DOFs, then u_y, ...);
-        D(D+1)/2 (the rigid motions: 3 in 2D, 6 in 3D) is right. These are the zero eigenvalues
-        of the linear-elastic element stiffness (docs/method.md §3 table, §8).
-    """
-    D = Q.shape[0]
-    nd = Q.shape[2]
-    gradient = np.zeros((nd, nd))
-    for c in range(D):
-        gradient += Q[c].T @ Q[c]
-    A = np.zeros((D * nd, D * nd))
-    for c in range(D):
-        A[c * nd:(c + 1) * nd, c * nd:(c + 1) * nd] = 0.5 * gradient + 0.5 * (Q[c].T @ Q[c])
-        for d in range(D):
-            if d != c:
-                A[c * nd:(c + 1) * nd, d * nd:(d + 1) * nd] = 0.5 * (Q[d].T @ Q[c])
-    return count_zero_eigenvalues(gradient, tol ** 2), count_zero_eigenvalues(A, tol ** 2)
-
-
-@numba.njit(cache=True)
-def rank_of_projection(M: np.ndarray, R: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """The rank check of one projection system M Pi_m[c] = R[c] (polygon or polyhedron).
-
-    Returns
-    -------
-    L : (nl, nl) float64
-        Cholesky factor of M.
-    Q : (D, nl, nd) float64
-        :func:`orthonormal_moments`; R itself when M is singular.
-    gradient_nullity, strain_nullity : int
-        :func:`null_space_dimensions`; both -1 if M is numerically singular (:func:`cholesky`).
-    """
-    L, mass_ok = cholesky(M)
-    if not mass_ok:
-        return L, R, -1, -1
-    Q = orthonormal_moments(L, R)
-    gradient_nullity, strain_nullity = null_space_dimensions(Q, tol)
-    return L, Q, gradient_nullity, strain_nullity
-
-
-@numba.njit(cache=True)
-def select_l(xy: np.ndarray, x_E: np.ndarray, h_E: float, Pi_nabla: np.ndarray, l_from: int, l_to: int,
-             tol: float) -> tuple[int, int, int, np.ndarray, np.ndarray]:
-    """Smallest sufficient l in [l_from, l_to] (docs/method.md §3), with its factors L and Q.
-
-    l is sufficient when the projected small strain u~ -> sym Pi^0_l grad u has exactly the
-    3 rigid motions in its null space *and* the projected gradient v~ -> Pi^0_l grad v only the
-    constants (rank 2N on the scalar DOFs). The strain criterion is the strict one and the
-    one that matters: a non-constant scalar null-space mode v gives the non-rigid, strain-free
-    field (v, 0), so strain-sufficient implies gradient-sufficient, but not conversely (the
-    U-shaped octagon of the tests at l = 3: gradient nullity 1, strain nullity 5). docs/method.md's
-    table counts zero eigenvalues of the linear-elastic stiffness, i.e. the strain null space.
-    Checking both costs little and guards the implication against tolerance artefacts.
-    The null space shrinks as l grows (P_l is contained in P_{l+1}), so the first sufficient l is
-    the smallest. An l with 3 nl < 2(2N+1) - 3 cannot be sufficient (too few strain
-    components) and is skipped without computing, unless it is l_to.
-
-    Parameters
-    ----------
-    xy : (N, 2) float64
-        Counter-clockwise vertices.
-    x_E, h_E
-        Centroid (2,) and diameter.
-    Pi_nabla : (6, 2N+1) float64
-        From :func:`pi_nabla_2`.
-    l_from, l_to : int
-        Range of l tried, 1 <= l_from <= l_to.
-    tol : float
-        Relative singular-value tolerance (:data:`RANK_TOL`).
-
-    Returns
-    -------
-    l : int
-        The first sufficient l; else l_to, or the l whose mass matrix is singular.
-    gradient_nullity, strain_nullity : int
-        Null-space dimensions at l (:func:`null_space_dimensions`); both -1 if the P_l mass matrix
-        is numerically singular (:func:`cholesky`).
-    L : (nl, nl) float64
-        Cholesky factor of the P_l mass matrix.
-    Q : (2, nl, 2N+1) float64
-        :func:`orthonormal_moments` at l.
-    """
-    l = l_from
-    N = xy.shape[0]
-    while True:
-        if 3 * n_monomials(l) < 4 * N - 1 and l < l_to:
-            l += 1  # rank(sym Pi grad) <= 3 nl < 2(2N+1) - 3: insufficient by counting alone
-            continue
-        M, R = projection_system(xy, x_E, h_E, Pi_nabla, l)
-        L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
-        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 3) or l == l_to:
-            return l, gradient_nullity, strain_nullity, L, Q
-        l += 1
-
-
-# --------------------------------------------------------------------------- bulk build
-@numba.njit(cache=True)
-def _build_all(points, offsets, vertices, polygons, l_from, l_to, tol, Pi_nabla_offsets):
-    """One loop over the selected polygons: status, l, nullities, geometry, Pi_nabla, Pi_m.
-
-    A polygon with status != _OK gets an empty Pi_m block (the caller raises).
-    """
-    n = polygons.size
-    status = np.zeros(n, dtype=np.int32)
-    l = np.zeros(n, dtype=np.int32)
-    nullities = np.zeros((n, 2), dtype=np.int64)
-    centroid = np.zeros((n, 2))
-    diameter = np.zeros(n)
-    area = np.zeros(n)
-    Pi_nabla_flat = np.zeros(Pi_nabla_offsets[-1])
-    Pi_m_offsets = np.zeros(n + 1, dtype=np.int64)
-    l_guess = l_from.min() if n > 0 else 1
-    Pi_m_flat = np.empty(2 * n_monomials(l_guess) * (Pi_nabla_offsets[-1] // 6))  # grows when needed
-    for j in range(n):
-        e = polygons[j]
-        xy = points[vertices[offsets[e]:offsets[e + 1]]]
-        Pi_m_offsets[j + 1] = Pi_m_offsets[j]
-        status[j] = _polygon_status(xy)
-        if status[j] != _OK:
-            continue
-        area[j], x_E, diameter[j] = polygon_geometry(xy)
-        centroid[j] = x_E
-        Pi_nabla = pi_nabla_2(xy, x_E, diameter[j], area[j])
-        Pi_nabla_flat[Pi_nabla_offsets[j]:Pi_nabla_offsets[j + 1]] = Pi_nabla.ravel()
-        l[j], nullities[j, 0], nullities[j, 1], L, Q = select_l(xy, x_E, diameter[j], Pi_nabla, l_from[j], l_to[j], tol)
-        if nullities[j, 0] == -1:
-            status[j] = _SINGULAR_MASS
-        elif nullities[j, 0] != 1 or nullities[j, 1] != 3:
-            status[j] = _RANK_DEFICIENT
-        if status[j] != _OK:
-            continue
-        Pi_m = gradient_projection(L, Q).ravel()
-        end = Pi_m_offsets[j] + Pi_m.size
-        if end > Pi_m_flat.size:
-            grown = np.empty(max(2 * Pi_m_flat.size, end))
-            grown[:Pi_m_offsets[j]] = Pi_m_flat[:Pi_m_offsets[j]]
-            Pi_m_flat = grown
-        Pi_m_flat[Pi_m_offsets[j]:end] = Pi_m
-        Pi_m_offsets[j + 1] = end
-    return status, l, nullities, centroid, diameter, area, Pi_nabla_flat, Pi_m_offsets, Pi_m_flat[:Pi_m_offsets[-1]]
-
-
-class ProjectionBlocks:
-    """The per-cell views of flattened projections, in any dimension d (the polygons' :class:`Projections`
-    and the polyhedra's :class:`~dolfinx_sfvem.discretizations.projection3d.Projections3D`): needs the attributes
-    ``l``, ``centroid`` (n, d), ``Pi_nabla_offsets``, ``Pi_nabla``, ``Pi_m_offsets``, ``Pi_m``."""
-
-    def Pi_nabla_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_nabla of cell j, (dim P_2, n_d_j): (6, n_d_j) in 2D, (10, n_d_j) in 3D (a view)."""
-        d = self.centroid.shape[1]
-        return self.Pi_nabla[self.Pi_nabla_offsets[j]:self.Pi_nabla_offsets[j + 1]].reshape(math.comb(2 + d, d), -1)
-
-    def Pi_m_of(self, j: int) -> npt.NDArray[np.float64]:
-        """Pi_m of cell j, (d, dim P_l_j, n_d_j) (a view)."""
-        d = self.centroid.shape[1]
-        block = self.Pi_m[self.Pi_m_offsets[j]:self.Pi_m_offsets[j + 1]]
-        return block.reshape(d, math.comb(int(self.l[j]) + d, d), -1)
-
-    def histogram(self) -> dict[int, int]:
-        """Number of cells per degree l, {l: count}, increasing l."""
-        values, counts = np.unique(self.l, return_counts=True)
-        return {int(v): int(c) for v, c in zip(values, counts)}
-
-
-@dataclass(frozen=True)
-class Projections(ProjectionBlocks):
-    """Pi^nabla_2 and Pi^0_l nabla of a set of polygons, flattened for the compiled loops.
-
-    Polygon j (0..n-1, in the order they were built) has nd_j = 2 N_j + 1 scalar DOFs
-    (module docstring) and nl_j = (l_j + 1)(l_j + 2)/2 monomials.
+# --------------------------------------------------------------------------- a polygon as a cell
+class PolygonCells(NamedTuple):
+    """The polygons of a mesh as cells of :func:`~dolfinx_sfvem.discretizations.cell_projection.build_cells`.
 
     Attributes
     ----------
-    l : (n,) int32
-        Degree of the gradient projection per polygon.
-    centroid : (n, 2) float64
-        x_E, the centre of the scaled monomials.
-    diameter : (n,) float64
-        h_E, the scaling of the monomials.
-    area : (n,) float64
-        |E|.
-    Pi_nabla_offsets : (n+1,) int64
-    Pi_nabla : (Pi_nabla_offsets[-1],) float64
-        Pi_nabla[Pi_nabla_offsets[j]:Pi_nabla_offsets[j+1]] reshapes (C order) to (6, nd_j).
-    Pi_m_offsets : (n+1,) int64
-    Pi_m : (Pi_m_offsets[-1],) float64
-        Pi_m[Pi_m_offsets[j]:Pi_m_offsets[j+1]] reshapes (C order) to (2, nl_j, nd_j).
+    points : (n_points, 2) float64
+    offsets : (n_poly + 1,) int64
+        CSR offsets: polygon e has vertices[offsets[e]:offsets[e+1]], counter-clockwise.
+    vertices : (offsets[-1],) int64
     """
 
-    l: npt.NDArray[np.int32]
-    centroid: npt.NDArray[np.float64]
-    diameter: npt.NDArray[np.float64]
-    area: npt.NDArray[np.float64]
-    Pi_nabla_offsets: npt.NDArray[np.int64]
-    Pi_nabla: npt.NDArray[np.float64]
-    Pi_m_offsets: npt.NDArray[np.int64]
-    Pi_m: npt.NDArray[np.float64]
+    points: np.ndarray
+    offsets: np.ndarray
+    vertices: np.ndarray
 
-    @property
-    def n_polygons(self) -> int:
-        return self.l.size
 
-    def summary(self) -> str:
-        """One line: polygon count and the distribution of l."""
-        parts = ", ".join(f"l={k}: {c} ({100.0 * c / self.n_polygons:.1f}%)" for k, c in self.histogram().items())
-        return f"SFVEM projections of {self.n_polygons} polygons; {parts}"
+class PolygonSystem(NamedTuple):
+    """What :func:`projection_system` needs of one polygon.
+
+    Attributes
+    ----------
+    xy : (N, 2) float64
+        Counter-clockwise vertices.
+    centroid : (2,) float64
+    diameter : float
+    Pi_nabla : (6, 2N+1) float64
+        :func:`pi_nabla_2`.
+    """
+
+    xy: np.ndarray
+    centroid: np.ndarray
+    diameter: float
+    Pi_nabla: np.ndarray
+
+
+@numba.njit(cache=True)
+def _prepare_polygon(mesh, e, tol):
+    """``prepare_cell`` of polygon e: (status, vertices, area, PolygonSystem)."""
+    vertices = mesh.vertices[mesh.offsets[e]:mesh.offsets[e + 1]]
+    xy = mesh.points[vertices]
+    status = _polygon_status(xy)
+    if status != OK:
+        return status, vertices, 0.0, PolygonSystem(xy, np.zeros(2), 0.0, np.zeros((6, 2 * xy.shape[0] + 1)))
+    area, x_E, h_E = polygon_geometry(xy)
+    Pi_nabla = np.ascontiguousarray(pi_nabla_2(xy, x_E, h_E, area))  # C order, as the failure's zeros
+    return status, vertices, area, PolygonSystem(xy, x_E, h_E, Pi_nabla)
+
+
+@overload(prepare_cell)
+def _prepare_cell_polygon(mesh, cell, tol):
+    if is_tuple_of(mesh, PolygonCells):
+        return lambda mesh, cell, tol: _prepare_polygon(mesh, cell, tol)
+
+
+@overload(cell_system)
+def _cell_system_polygon(system, l):
+    if is_tuple_of(system, PolygonSystem):
+        return lambda system, l: projection_system(system.xy, system.centroid, system.diameter, system.Pi_nabla, l)
 
 
 # --------------------------------------------------------------------------- input checks and errors
+def polygon_error(xy: npt.NDArray[np.float64], e: int, status: int) -> ValueError:
+    """The error for polygon e whose vertices xy (N, 2) have the geometry status ``status`` (not OK)."""
+    if status == _ZERO_EDGE:
+        return ValueError(f"polygon {e}: two consecutive vertices coincide")
+    return ValueError(f"polygon {e}: vertices are not counter-clockwise (signed area {polygon_geometry(xy)[0]:.3e})")
+
+
 def validate_polygon(xy: npt.NDArray[np.float64], e: int = 0) -> None:
     """Raise ValueError (naming polygon e) unless xy (N, 2) is a counter-clockwise polygon, N >= 3."""
     if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 3:
         raise ValueError(f"polygon {e}: need an (N, 2) vertex array with N >= 3, got shape {xy.shape}")
-    status = _polygon_status(np.ascontiguousarray(xy, dtype=np.float64))
-    if status == _ZERO_EDGE:
-        raise ValueError(f"polygon {e}: two consecutive vertices coincide")
-    if status == _NOT_CCW:
-        raise ValueError(f"polygon {e}: vertices are not counter-clockwise (signed area "
-                         f"{polygon_geometry(xy)[0]:.3e})")
+    xy = np.ascontiguousarray(xy, dtype=np.float64)
+    status = _polygon_status(xy)
+    if status != OK:
+        raise polygon_error(xy, e, status)
 
 
 def _check_csr(points: np.ndarray, offsets: np.ndarray, vertices: np.ndarray) -> None:
@@ -651,45 +321,6 @@ def _check_csr(points: np.ndarray, offsets: np.ndarray, vertices: np.ndarray) ->
         raise ValueError(f"polygon {e}: {counts[e]} vertices, at least 3 needed")
     if vertices.size and (vertices.min() < 0 or vertices.max() >= points.shape[0]):
         raise ValueError(f"vertices must index points (0..{points.shape[0] - 1})")
-
-
-def _l_range(l: int | npt.ArrayLike | None, n: int, l_min: int, l_max: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-polygon range [l_from, l_to] searched by :func:`select_l`."""
-    if not 1 <= l_min <= l_max:
-        raise ValueError(f"need 1 <= l_min <= l_max, got l_min={l_min}, l_max={l_max}")
-    if l is None:
-        return np.full(n, l_min, dtype=np.int64), np.full(n, l_max, dtype=np.int64)
-    l_given = np.asarray(l)
-    if not np.issubdtype(l_given.dtype, np.integer) or l_given.ndim > 1 or l_given.ndim == 1 and l_given.size != n:
-        raise ValueError(f"l must be an int or one int per built polygon ({n}), got {l!r}")
-    l_given = np.broadcast_to(l_given.astype(np.int64), (n,)).copy()
-    bad = np.flatnonzero((l_given < 1) | (l_given > l_max))
-    if bad.size:
-        raise ValueError(f"l={l_given[bad[0]]} (built polygon {bad[0]}) is outside [1, l_max={l_max}]; "
-                         "raise l_max to allow it")
-    return l_given, l_given
-
-
-def _rank_error(e: int, xy: np.ndarray, status: int, l: int, nullities: np.ndarray, l_given: bool,
-                l_max: int) -> ValueError:
-    """The error for polygon e (mesh index) whose l is not sufficient."""
-    if status == _SINGULAR_MASS:
-        return ValueError(f"polygon {e}: the P_{l} monomial mass matrix is numerically singular (relative "
-                          f"Cholesky pivot < {MASS_PIVOT_TOL:g}); the polygon is too thin or degenerate for "
-                          f"scaled monomials of degree {l}")
-    deficiency = (f"{nullities[1]} zero-strain modes where the 3 rigid motions are expected, gradient null space "
-                  f"{nullities[0]} where 1 is expected; relative SVD tolerance {RANK_TOL:g}")
-    if not l_given:
-        return ValueError(f"polygon {e}: no l <= l_max={l_max} is sufficient (at l={l}: {deficiency}); "
-                          "degenerate polygon or l_max too small")
-    smallest = f"no l <= l_max={l_max} is sufficient"
-    if l < l_max:
-        area, x_E, h_E = polygon_geometry(xy)
-        l_ok, gradient_nullity, strain_nullity, _, _ = select_l(xy, x_E, h_E, pi_nabla_2(xy, x_E, h_E, area),
-                                                              l + 1, l_max, RANK_TOL)
-        if gradient_nullity == 1 and strain_nullity == 3:
-            smallest = f"the smallest sufficient l is {l_ok}"
-    return ValueError(f"polygon {e}: l={l} is rank-deficient ({deficiency}); {smallest}")
 
 
 def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: npt.ArrayLike,
@@ -710,7 +341,8 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
     l : int or (n,) int, optional
         Degree of the gradient projection, for all polygons or per built polygon (in the
         order of ``polygons``). It must be sufficient for every polygon. Default: per
-        polygon the smallest sufficient l >= l_min (docs/method.md §3, :func:`select_l`).
+        polygon the smallest sufficient l >= l_min (docs/method.md §3,
+        :func:`~dolfinx_sfvem.discretizations.cell_projection.select_l`).
     l_min : int
         Smallest l tried by the automatic choice (the paper uses 3).
     l_max : int
@@ -720,13 +352,16 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
     Returns
     -------
     Projections
+        Of the polygons (d = 2), their areas as ``measure``.
 
     Raises
     ------
     ValueError
         Naming the first bad polygon: fewer than 3 vertices, coinciding consecutive vertices,
-        not counter-clockwise, a given l that is rank-deficient (with the smallest sufficient
-        l), no sufficient l <= l_max, or a numerically singular mass matrix.
+        not counter-clockwise (``polygon N: ...``), or as ``cell N: ...``
+        (:func:`~dolfinx_sfvem.discretizations.cell_projection.projection_error`) a given l that is
+        rank-deficient (with the smallest sufficient l), no sufficient l <= l_max, or a numerically
+        singular mass matrix.
     """
     points = np.ascontiguousarray(points, dtype=np.float64)
     offsets = np.ascontiguousarray(offsets, dtype=np.int64)
@@ -737,35 +372,26 @@ def build_projections(points: npt.ArrayLike, offsets: npt.ArrayLike, vertices: n
     polygons = np.ascontiguousarray(polygons, dtype=np.int64)
     if polygons.ndim != 1 or (polygons.size and (polygons.min() < 0 or polygons.max() >= n_poly)):
         raise ValueError(f"polygons must be a 1D array of polygon indices in [0, {n_poly})")
-    l_from, l_to = _l_range(l, polygons.size, l_min, l_max)
-    nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
-    Pi_nabla_offsets = np.concatenate(([0], np.cumsum(6 * nd))).astype(np.int64)
 
-    status, l_chosen, nullities, centroid, diameter, area, Pi_nabla, Pi_m_offsets, Pi_m = _build_all(
-        points, offsets, vertices, polygons, l_from, l_to, RANK_TOL, Pi_nabla_offsets)
-    failed = np.flatnonzero(status != _OK)
-    if failed.size:
-        j = failed[0]
-        e = int(polygons[j])
-        xy = points[vertices[offsets[e]:offsets[e + 1]]]
-        validate_polygon(xy, e)
-        raise _rank_error(e, xy, int(status[j]), int(l_chosen[j]), nullities[j], l is not None, l_max)
-    return Projections(l_chosen, centroid, diameter, area, Pi_nabla_offsets, Pi_nabla, Pi_m_offsets, Pi_m)
+    def geometry_error(e: int, status: int) -> ValueError:
+        return polygon_error(points[vertices[offsets[e]:offsets[e + 1]]], e, status)
+
+    return build_cell_projections(PolygonCells(points, offsets, vertices), polygons, 2, l, l_min, l_max,
+                                  geometry_error)
 
 
 def without_sufficient_order(points: npt.NDArray[np.float64], offsets: npt.NDArray[np.int64],
                              vertices: npt.NDArray[np.int64], polygons: npt.NDArray[np.int64],
                              l_from: int, l_to: int) -> npt.NDArray[np.bool_]:
     """Mask (polygons.size,) bool: no projection order l_from <= l <= l_to passes the rank check
-    of :func:`select_l` (tolerance :data:`RANK_TOL`) for the polygon, or it is not a valid
-    counter-clockwise polygon.
+    of :func:`~dolfinx_sfvem.discretizations.cell_projection.select_l` (tolerance
+    :data:`~dolfinx_sfvem.discretizations.cell_projection.RANK_TOL`) for the polygon, or it is not a
+    valid counter-clockwise polygon.
 
     ``points`` (n_points, 2) float64, ``offsets`` (n_poly + 1,) int64 and ``vertices`` int64 as
     in :func:`build_projections`; ``polygons`` (n,) int64 the polygons checked.
     """
     n = polygons.size
-    nd = 2 * (offsets[polygons + 1] - offsets[polygons]) + 1
-    status = _build_all(points, offsets, vertices, polygons, np.full(n, l_from, dtype=np.int64),
-                        np.full(n, l_to, dtype=np.int64), RANK_TOL,
-                        np.concatenate([[0], np.cumsum(6 * nd)]).astype(np.int64))[0]
-    return status != _OK
+    status = build_cells(PolygonCells(points, offsets, vertices), polygons, 2, np.full(n, l_from, dtype=np.int64),
+                         np.full(n, l_to, dtype=np.int64), RANK_TOL)[0]
+    return status != OK

@@ -31,27 +31,32 @@ Results
 ``Q`` (3, n_l, n_d)
     The same in the L^2(E)-orthonormal basis: int_E (Pi dv/dx_c)(Pi dw/dx_d) = (Q[c] v~) . (Q[d] w~).
 
-l is chosen per polyhedron by the rank condition as in 2D (:func:`select_l_3d`).
+l is chosen per polyhedron by the rank condition as in 2D: this module gives a polyhedron to the
+dimension-generic :mod:`~dolfinx_sfvem.discretizations.cell_projection` (its ``select_l`` and
+``build_cells``) through the overloads of ``prepare_cell`` (for :class:`PolyhedronCells`) and
+``cell_system`` (for :class:`PolyhedronSystem`).
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 import numpy.typing as npt
-from numba.typed import List
+from numba.extending import overload
 
+from dolfinx_sfvem.discretizations.cell_projection import (
+    GEOMETRY_STATUS, OK, RANK_TOL, Projections, build_cell_projections, cell_system, cholesky, count_zero_eigenvalues,
+    is_tuple_of, orthonormal_moments, prepare_cell, projection_error, select_l)
 from dolfinx_sfvem.discretizations.monomials import (
     evaluate_monomials, exponents, monomial_index, n_monomials, polygon_monomial_integrals)
 from dolfinx_sfvem.discretizations.monomials3d import evaluate_monomials3, exponents3, monomial_index3, n_monomials3
 from dolfinx_sfvem.mesh.polyhedron import (
     _edges, _geometry, face_frame, face_quadrature, face_triangles, faces_csr, map_triangle_rule,
     monomial_integrals_from_faces, plane_coordinates, polyhedron_quadrature, validate_polyhedron)
-from dolfinx_sfvem.discretizations.projection import (
-    RANK_TOL, ProjectionBlocks, cholesky, count_zero_eigenvalues, gradient_projection, orthonormal_moments, pi_nabla_2,
-    polygon_geometry, projection_system, rank_of_projection)
+from dolfinx_sfvem.discretizations.projection import pi_nabla_2, polygon_geometry, projection_system
 from dolfinx_sfvem.discretizations.quadrature import triangle_rule
 
 #: smallest and largest l tried by the automatic choice (docs/method.md §8; l_min = 3 as in 2D)
@@ -267,18 +272,31 @@ def pi_nabla_2_3d(volume, x_E, h_E, normals, face_centroids, x_q, w_q, point_fac
 
 
 @numba.njit(cache=True)
-def projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla, l):
-    """Mass matrix M (n_l, n_l) and right sides R (3, n_l, n_d) of Pi^0_l nabla: M Pi_m[c] = R[c].
+def projection_system_3d(system, l):
+    """Mass matrix M (n_l, n_l) and right sides R (3, n_l, n_d) of Pi^0_l nabla on a polyhedron: M Pi_m[c] = R[c].
 
         (r_c)_a = sum_f n_f,c int_f m_a Pi^nabla_{k_f,f} v - int_E (dm_a/dx_c) Pi^nabla_2 v
 
     (int_E grad v . p = -int_E v div p + sum_f int_f v p . n_f with the enhanced face and cell
-    spaces). The face rule must be exact for degree max(2l, l + max k_f): M needs the monomial
+    spaces). The face rule is exact for degree max(2l, l + max k_f): M needs the monomial
     integrals up to 2l, the face terms degree l + k_f. The face terms go through the small moment
     matrices F_f = int_f m m_f^T (3D monomials of degree l against the face's 2D ones of degree
     k_f): R[c][:, face DOFs] += n_f,c F_f Pi^nabla_{k_f,f}.
+
+    Parameters
+    ----------
+    system : PolyhedronSystem
+        The polyhedron (:func:`prepare_polyhedron`).
+    l : int
+        Degree of the projection, >= 1.
     """
+    x_E, h_E, Pi_nabla, normals, face_centroids = (system.centroid, system.diameter, system.Pi_nabla, system.normals,
+                                                   system.face_centroids)
+    face_data = system.face_data
+    n_d = Pi_nabla.shape[1]
     origins, bases, centres, diameters, degrees, Pi_offsets, Pi_flat, dof_offsets, dofs = face_data
+    x_q, w_q, point_face = _face_rule(system.triangles, system.triangle_face, system.rule_points, system.rule_weights,
+                                      system.rule_offsets, max(2 * l, l + degrees.max()))
     nl = n_monomials3(l)
     integrals = monomial_integrals_from_faces(x_q, w_q, point_face, normals, face_centroids, x_E, h_E, 2 * l)
     alpha = exponents3(l)
@@ -331,68 +349,119 @@ def projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face
     return M, R
 
 
-@numba.njit(cache=True)
-def select_l_3d(x_E, h_E, normals, face_centroids, triangles, triangle_face, face_data, n_d, Pi_nabla,
-                rule_points, rule_weights, rule_offsets, l_from, l_to, tol):
-    """Smallest sufficient l in [l_from, l_to] (docs/method.md §8), with its factors L and Q.
+# geometry failure of a polyhedron: a face whose DOFs no face projection of degree <= k_max sees all of
+FACE_BLIND = GEOMETRY_STATUS
 
-    l is sufficient when the projected small strain u~ -> sym Pi^0_l grad u (3 n_d vector DOFs)
-    has exactly the 6 rigid motions in its null space and the projected gradient v~ -> Pi^0_l grad v
-    only the constants, counted in the L^2(E)-orthonormal basis with the relative singular-value
-    tolerance ``tol`` (:func:`dolfinx_sfvem.discretizations.projection.null_space_dimensions`). An l with
-    6 n_l < 3 n_d - 6 cannot be sufficient and is skipped, unless it is l_to.
+
+class PolyhedronSystem(NamedTuple):
+    """What :func:`projection_system_3d` needs of one polyhedron (the ``cell_system`` of a polyhedron).
+
+    Attributes
+    ----------
+    centroid : (3,) float64
+        x_E.
+    diameter : float
+        h_E.
+    Pi_nabla : (10, n_d) float64
+        :func:`pi_nabla_2_3d`.
+    normals : (n_f, 3) float64
+        Outward unit normals of the faces.
+    face_centroids : (n_f, 3) float64
+    triangles : (n_t, 3, 3) float64
+        The faces' triangles (:func:`~dolfinx_sfvem.mesh.polyhedron.face_triangles`).
+    triangle_face : (n_t,) int64
+        The face of each triangle.
+    face_data : tuple
+        :func:`face_spaces`.
+    rule_points, rule_weights, rule_offsets
+        The triangle rules by degree (:func:`triangle_rule_table`).
+    """
+
+    centroid: np.ndarray
+    diameter: float
+    Pi_nabla: np.ndarray
+    normals: np.ndarray
+    face_centroids: np.ndarray
+    triangles: np.ndarray
+    triangle_face: np.ndarray
+    face_data: tuple
+    rule_points: np.ndarray
+    rule_weights: np.ndarray
+    rule_offsets: np.ndarray
+
+
+@numba.njit(cache=True)
+def prepare_polyhedron(points, offsets, vertices, edges, rule_points, rule_weights, rule_offsets, k_max, tol):
+    """Geometry, face spaces and Pi_nabla of one polyhedron.
+
+    Parameters
+    ----------
+    points : (n_v, 3) float64
+    offsets, vertices : int64
+        CSR of the faces (local vertex numbers, outward).
+    edges : (n_e, 2) int64
+        The edges in DOF order.
+    rule_points, rule_weights, rule_offsets
+        The triangle rules by degree (:func:`triangle_rule_table`), to degree max(2 l_to, l_to + k_max).
+    k_max : int
+        Largest face degree k_f.
+    tol : float
+        Relative singular-value tolerance of the face spaces.
 
     Returns
     -------
-    l, gradient_nullity, strain_nullity : int
-        Nullities -1 if the P_l mass matrix is numerically singular.
-    L : (n_l, n_l) float64
-        Cholesky factor of the P_l mass matrix.
-    Q : (3, n_l, n_d) float64
-        Orthonormal moments (:func:`dolfinx_sfvem.discretizations.projection.orthonormal_moments`).
-    """
-    l = l_from
-    while True:
-        if 6 * n_monomials3(l) < 3 * n_d - 6 and l < l_to:
-            l += 1
-            continue
-        x_q, w_q, point_face = _face_rule(triangles, triangle_face, rule_points, rule_weights, rule_offsets,
-                                          max(2 * l, l + face_data[4].max()))
-        M, R = projection_system_3d(x_E, h_E, normals, face_centroids, x_q, w_q, point_face, face_data, n_d, Pi_nabla,
-                                    l)
-        L, Q, gradient_nullity, strain_nullity = rank_of_projection(M, R, tol)
-        if gradient_nullity == -1 or (gradient_nullity == 1 and strain_nullity == 6) or l == l_to:
-            return l, gradient_nullity, strain_nullity, L, Q
-        l += 1
-
-
-@numba.njit(cache=True)
-def build_polyhedron(points, offsets, vertices, edges, rule_points, rule_weights, rule_offsets, l_from, l_to,
-                     k_max, tol):
-    """All of one polyhedron in one compiled call: geometry, face spaces, Pi_nabla, l, L, Q, Pi_m.
-
-    Returns (face degrees k_f (n_f,), volume, x_E, h_E, Pi_nabla (10, n_d), l, gradient_nullity,
-    strain_nullity, Q, Pi_m); Pi_nabla, Q and Pi_m are meaningless when a face degree is -1 (no
-    k_f <= k_max sees the face's DOFs) or the nullities are -1 (singular mass matrix). The triangle
-    rule table must reach degree max(2 l_to, l_to + k_max).
+    status : int
+        OK, or :data:`FACE_BLIND` (then Pi_nabla is zero).
+    volume : float
+    system : PolyhedronSystem
     """
     volume, x_E, h_E, _, normals, face_centroids, _ = _geometry(points, offsets, vertices)
     triangles, triangle_face = face_triangles(points, offsets, vertices)
     face_data = face_spaces(points, offsets, vertices, edges, k_max, tol)
     degrees = face_data[4]
     n_d = points.shape[0] + edges.shape[0] + offsets.size - 1 + 1
+    status = OK
+    Pi_nabla = np.zeros((10, n_d))
     if degrees.min() < 0:
-        return degrees, volume, x_E, h_E, np.zeros((10, n_d)), l_from, -1, -1, np.zeros((3, 1, n_d)), \
-            np.zeros((3, 1, n_d))
-    x_q, w_q, point_face = _face_rule(triangles, triangle_face, rule_points, rule_weights, rule_offsets,
-                                      1 + degrees.max())
-    Phi = face_basis_values(x_q, point_face, n_d, *face_data)
-    Pi_nabla = pi_nabla_2_3d(volume, x_E, h_E, normals, face_centroids, x_q, w_q, point_face, Phi, n_d)
-    l, gradient_nullity, strain_nullity, L, Q = select_l_3d(
-        x_E, h_E, normals, face_centroids, triangles, triangle_face, face_data, n_d, Pi_nabla,
-        rule_points, rule_weights, rule_offsets, l_from, l_to, tol)
-    Pi_m = gradient_projection(L, Q) if gradient_nullity >= 0 else Q.copy()
-    return degrees, volume, x_E, h_E, Pi_nabla, l, gradient_nullity, strain_nullity, Q, Pi_m
+        status = FACE_BLIND
+    else:
+        x_q, w_q, point_face = _face_rule(triangles, triangle_face, rule_points, rule_weights, rule_offsets,
+                                          1 + degrees.max())
+        Phi = face_basis_values(x_q, point_face, n_d, *face_data)
+        Pi_nabla = pi_nabla_2_3d(volume, x_E, h_E, normals, face_centroids, x_q, w_q, point_face, Phi, n_d)
+    return status, volume, PolyhedronSystem(x_E, h_E, Pi_nabla, normals, face_centroids, triangles, triangle_face,
+                                            face_data, rule_points, rule_weights, rule_offsets)
+
+
+@numba.njit(cache=True)
+def build_polyhedron(points, offsets, vertices, edges, rule_points, rule_weights, rule_offsets, l_from, l_to,
+                     k_max, tol):
+    """All of one polyhedron in one compiled call: :func:`prepare_polyhedron`, then
+    :func:`~dolfinx_sfvem.discretizations.cell_projection.select_l` in [l_from, l_to].
+
+    Returns
+    -------
+    status : int
+        OK, FACE_BLIND, or select_l's status.
+    volume : float
+    system : PolyhedronSystem
+    l, gradient_nullity, strain_nullity : int
+    Q, Pi_m : (3, n_l, n_d) float64
+        As select_l gives them; (3, 0, n_d) for a FACE_BLIND polyhedron.
+    """
+    status, volume, system = prepare_polyhedron(points, offsets, vertices, edges, rule_points, rule_weights,
+                                                rule_offsets, k_max, tol)
+    n_d = system.Pi_nabla.shape[1]
+    l, gradient_nullity, strain_nullity, Q, Pi_m = l_from, -1, -1, np.zeros((3, 0, n_d)), np.zeros((3, 0, n_d))
+    if status == OK:
+        status, l, gradient_nullity, strain_nullity, Q, Pi_m = select_l(system, 3, l_from, l_to, tol)
+    return status, volume, system, l, gradient_nullity, strain_nullity, Q, Pi_m
+
+
+@overload(cell_system)
+def _cell_system_polyhedron(system, l):
+    if is_tuple_of(system, PolyhedronSystem):
+        return lambda system, l: projection_system_3d(system, l)
 
 
 # --------------------------------------------------------------------------- Python interface
@@ -454,14 +523,16 @@ def polyhedron_projections(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike]
         Local vertex indices of each face, cyclic, normal (right-hand rule) outward.
     l : int, optional
         Degree of the gradient projection; it must be sufficient. Default: the smallest
-        sufficient l in [l_min, l_max] (:func:`select_l_3d`).
+        sufficient l in [l_min, l_max] (:func:`~dolfinx_sfvem.discretizations.cell_projection.select_l`).
     l_min, l_max : int
         Range of the automatic choice.
 
     Raises
     ------
     ValueError
-        Bad polyhedron (:func:`~dolfinx_sfvem.mesh.polyhedron.validate_polyhedron`), a given l that is
+        Bad polyhedron (:func:`~dolfinx_sfvem.mesh.polyhedron.validate_polyhedron`), a face no face
+        projection sees; as ``cell 0: ...``
+        (:func:`~dolfinx_sfvem.discretizations.cell_projection.projection_error`) a given l that is
         rank-deficient, no sufficient l <= l_max, or a numerically singular P_l mass matrix.
     """
     validate_polyhedron(points, faces)
@@ -473,22 +544,26 @@ def polyhedron_projections(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike]
     points = np.ascontiguousarray(points, dtype=np.float64)
     offsets, vertices = faces_csr(faces)
     edges = _edges(offsets, vertices)
-    degrees, volume, x_E, h_E, Pi_nabla, l_used, gradient_nullity, strain_nullity, Q, Pi_m = build_polyhedron(
-        points, offsets, vertices, edges, *triangle_rule_table(max(2 * l_to, l_to + K_FACE_MAX)), l_from, l_to,
-        K_FACE_MAX, RANK_TOL)
-    if degrees.min() < 0:
+    table = triangle_rule_table(max(2 * l_max, l_max + K_FACE_MAX))
+
+    def build(l_from: int, l_to: int) -> tuple:
+        return build_polyhedron(points, offsets, vertices, edges, *table, l_from, l_to, K_FACE_MAX, RANK_TOL)
+
+    status, volume, system, l_used, gradient_nullity, strain_nullity, Q, Pi_m = build(l_from, l_to)
+    degrees = system.face_data[4]
+    if status == FACE_BLIND:
         f = int(np.argmin(degrees))
         raise ValueError(f"face {f}: no face projection of degree <= {K_FACE_MAX} sees all of its DOFs "
                          "(degenerate face: a side shorter than about 1e-5 of its diameter?)")
-    if gradient_nullity == -1:
-        raise ValueError(f"the P_{l_used} monomial mass matrix of the polyhedron is numerically singular: "
-                         f"too thin or degenerate for scaled monomials of degree {l_used}")
-    if gradient_nullity != 1 or strain_nullity != 6:
-        what = f"l={l_used} is rank-deficient" if l is not None else f"no l <= l_max={l_max} is sufficient"
-        raise ValueError(f"{what}: {strain_nullity} zero-strain modes where the 6 rigid motions are expected, "
-                         f"gradient null space {gradient_nullity} where 1 is expected (relative SVD tolerance "
-                         f"{RANK_TOL:g})")
-    return PolyhedronProjections(int(l_used), float(volume), x_E, float(h_E), edges, degrees, Pi_nabla, Pi_m, Q)
+    if status != OK:
+        def sufficient_above(l: int) -> int | None:
+            again = build(l + 1, l_max)
+            return int(again[3]) if again[0] == OK else None
+
+        raise projection_error(0, status, int(l_used), (gradient_nullity, strain_nullity), 3, l is not None, l_max,
+                               sufficient_above)
+    return PolyhedronProjections(int(l_used), float(volume), system.centroid, float(system.diameter), edges, degrees,
+                                 system.Pi_nabla, Pi_m, Q)
 
 
 def interpolation_dofs(points: npt.ArrayLike, faces: Sequence[npt.ArrayLike],
@@ -567,91 +642,57 @@ def local_polyhedron(points, face_offsets, face_vertices, cell_faces, cell_face_
     return vertices, points[vertices], offsets, local_faces, edges
 
 
-# status of a cell after the bulk build
-_OK, _FACE_BLIND, _SINGULAR_MASS, _RANK_DEFICIENT = 0, 1, 2, 3
-
-
-@numba.njit(cache=True)
-def _build_many(points, face_offsets, face_vertices, cell_offsets, cell_faces, cell_face_signs, cells, rule_points,
-                rule_weights, rule_offsets, l_from, l_to, k_max, tol):
-    """One compiled loop over the given cells: status, l, nullities, geometry and the per-cell
-    arrays (global vertices, Pi_nabla, Pi_m) as lists."""
-    n = cells.size
-    status = np.zeros(n, dtype=np.int64)
-    l = np.zeros(n, dtype=np.int64)
-    nullities = np.zeros((n, 2), dtype=np.int64)
-    volume = np.zeros(n)
-    centroid = np.zeros((n, 3))
-    diameter = np.zeros(n)
-    vertex_lists = List()
-    Pi_nabla_list = List()
-    Pi_m_list = List()
-    for j in range(n):
-        c = cells[j]
-        faces = cell_faces[cell_offsets[c]:cell_offsets[c + 1]]
-        signs = cell_face_signs[cell_offsets[c]:cell_offsets[c + 1]]
-        vertices, X, offsets, local_faces, edges = local_polyhedron(points, face_offsets, face_vertices, faces, signs)
-        degrees, volume[j], x_E, diameter[j], Pi_nabla, l[j], nullities[j, 0], nullities[j, 1], _, Pi_m = \
-            build_polyhedron(X, offsets, local_faces, edges, rule_points, rule_weights, rule_offsets, l_from[j],
-                             l_to[j], k_max, tol)
-        centroid[j] = x_E
-        if degrees.min() < 0:
-            status[j] = _FACE_BLIND
-        elif nullities[j, 0] == -1:
-            status[j] = _SINGULAR_MASS
-        elif nullities[j, 0] != 1 or nullities[j, 1] != 6:
-            status[j] = _RANK_DEFICIENT
-        vertex_lists.append(vertices)
-        Pi_nabla_list.append(Pi_nabla.ravel())
-        Pi_m_list.append(Pi_m.ravel())
-    return status, l, nullities, volume, centroid, diameter, vertex_lists, Pi_nabla_list, Pi_m_list
-
-
-def _csr(arrays) -> tuple[np.ndarray, np.ndarray]:
-    offsets = np.concatenate([[0], np.cumsum([a.size for a in arrays])]).astype(np.int64)
-    return offsets, (np.concatenate(list(arrays)) if len(arrays) else np.empty(0))
-
-
-@dataclass(frozen=True)
-class Projections3D(ProjectionBlocks):
-    """Pi^nabla_2 and Pi^0_l nabla of many polyhedra, flattened for compiled loops.
-
-    Cell j (0..n-1, in the order built) has the local vertices ``vertices_of(j)`` (global numbers,
-    increasing), n_d_j scalar DOFs in the order of the module docstring (its local edges are the
-    sorted pairs of local vertex numbers) and n_l_j = (l_j+1)(l_j+2)(l_j+3)/6 monomials.
+class PolyhedronCells(NamedTuple):
+    """The cells of a polyhedral mesh as cells of :func:`~dolfinx_sfvem.discretizations.cell_projection.build_cells`
+    (the arrays of :func:`build_projections_3d`), with the triangle rules and the largest face degree.
 
     Attributes
     ----------
-    l : (n,) int64
-    volume : (n,) float64
-    centroid : (n, 3) float64
-    diameter : (n,) float64
-    vertex_offsets, vertices : int64
-        CSR of the cells' global vertex numbers.
-    Pi_nabla_offsets, Pi_nabla : Pi_nabla of cell j, (10, n_d_j) in C order.
-    Pi_m_offsets, Pi_m : Pi_m of cell j, (3, n_l_j, n_d_j) in C order.
+    points : (n_points, 3) float64
+    face_offsets, face_vertices : int64
+        CSR of the faces (global vertex numbers, each face stored once).
+    cell_offsets, cell_faces, cell_face_signs : int64
+        CSR of the cells' faces, +1 where the stored normal points out of the cell.
+    rule_points, rule_weights, rule_offsets
+        :func:`triangle_rule_table`, to degree max(2 l_max, l_max + k_max).
+    k_max : int
+        Largest face degree k_f (:data:`K_FACE_MAX`).
     """
 
-    l: npt.NDArray[np.int64]
-    volume: npt.NDArray[np.float64]
-    centroid: npt.NDArray[np.float64]
-    diameter: npt.NDArray[np.float64]
-    vertex_offsets: npt.NDArray[np.int64]
-    vertices: npt.NDArray[np.int64]
-    Pi_nabla_offsets: npt.NDArray[np.int64]
-    Pi_nabla: npt.NDArray[np.float64]
-    Pi_m_offsets: npt.NDArray[np.int64]
-    Pi_m: npt.NDArray[np.float64]
+    points: np.ndarray
+    face_offsets: np.ndarray
+    face_vertices: np.ndarray
+    cell_offsets: np.ndarray
+    cell_faces: np.ndarray
+    cell_face_signs: np.ndarray
+    rule_points: np.ndarray
+    rule_weights: np.ndarray
+    rule_offsets: np.ndarray
+    k_max: int
 
-    def vertices_of(self, j: int) -> npt.NDArray[np.int64]:
-        """Global vertex numbers of cell j, in local order."""
-        return self.vertices[self.vertex_offsets[j]:self.vertex_offsets[j + 1]]
+
+@numba.njit(cache=True)
+def _prepare_polyhedron_cell(mesh, c, tol):
+    """``prepare_cell`` of cell c: (status, global vertices, volume, PolyhedronSystem)."""
+    faces = mesh.cell_faces[mesh.cell_offsets[c]:mesh.cell_offsets[c + 1]]
+    signs = mesh.cell_face_signs[mesh.cell_offsets[c]:mesh.cell_offsets[c + 1]]
+    vertices, X, offsets, local_faces, edges = local_polyhedron(mesh.points, mesh.face_offsets, mesh.face_vertices,
+                                                                faces, signs)
+    status, volume, system = prepare_polyhedron(X, offsets, local_faces, edges, mesh.rule_points, mesh.rule_weights,
+                                                mesh.rule_offsets, mesh.k_max, tol)
+    return status, vertices, volume, system
+
+
+@overload(prepare_cell)
+def _prepare_cell_polyhedron(mesh, cell, tol):
+    if is_tuple_of(mesh, PolyhedronCells):
+        return lambda mesh, cell, tol: _prepare_polyhedron_cell(mesh, cell, tol)
 
 
 def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, face_vertices: npt.ArrayLike,
                          cell_offsets: npt.ArrayLike, cell_faces: npt.ArrayLike, cell_face_signs: npt.ArrayLike,
-                         cells: npt.ArrayLike | None = None, l: int | None = None, l_min: int = L_MIN,
-                         l_max: int = L_MAX) -> Projections3D:
+                         cells: npt.ArrayLike | None = None, l: int | npt.ArrayLike | None = None, l_min: int = L_MIN,
+                         l_max: int = L_MAX) -> Projections:
     """Pi^nabla_2 and Pi^0_l nabla of the cells of a polyhedral mesh (one compiled loop).
 
     The mesh arrays are those of :class:`~dolfinx_sfvem.mesh.polyhedron_mesh.PolyhedronMesh`: each face stored once
@@ -661,51 +702,40 @@ def build_projections_3d(points: npt.ArrayLike, face_offsets: npt.ArrayLike, fac
 
     Parameters
     ----------
+    points : (n_points, 3) float
+    face_offsets : (n_faces + 1,) int
+    face_vertices : (face_offsets[-1],) int
+    cell_offsets : (n_cells + 1,) int
+    cell_faces, cell_face_signs : (cell_offsets[-1],) int
     cells : (n,) int, optional
         The cells to build (default all); the result is indexed 0..n-1 in this order.
-    l : int, optional
-        One degree for all cells (must be sufficient); default the smallest sufficient per cell.
+    l : int or (n,) int, optional
+        Degree of the gradient projection, for all cells or per built cell (must be sufficient);
+        default the smallest sufficient per cell.
     l_min, l_max : int
         Range of the automatic choice.
+
+    Returns
+    -------
+    Projections
+        Of the polyhedra (d = 3), their volumes as ``measure``.
 
     Raises
     ------
     ValueError
-        Naming the first cell whose face cannot be seen, whose mass matrix is singular, or for
-        which no l (or the given l) is sufficient.
+        Naming the first cell (``cell N: ...``) with a face no face projection sees, whose mass matrix
+        is singular, or for which no l (or the given l) is sufficient
+        (:func:`~dolfinx_sfvem.discretizations.cell_projection.projection_error`).
     """
-    points = np.ascontiguousarray(points, dtype=np.float64)
-    face_offsets = np.ascontiguousarray(face_offsets, dtype=np.int64)
-    face_vertices = np.ascontiguousarray(face_vertices, dtype=np.int64)
-    cell_offsets = np.ascontiguousarray(cell_offsets, dtype=np.int64)
-    cell_faces = np.ascontiguousarray(cell_faces, dtype=np.int64)
-    cell_face_signs = np.ascontiguousarray(cell_face_signs, dtype=np.int64)
-    cells = np.arange(cell_offsets.size - 1) if cells is None else np.ascontiguousarray(cells, dtype=np.int64)
-    if l is not None and (int(l) != l or not 1 <= l <= l_max):
-        raise ValueError(f"l must be an integer in [1, l_max={l_max}], got {l!r}")
-    l_from = np.full(cells.size, l_min if l is None else int(l), dtype=np.int64)
-    l_to = np.full(cells.size, l_max if l is None else int(l), dtype=np.int64)
-    table = triangle_rule_table(max(2 * int(l_to.max(initial=1)), int(l_to.max(initial=1)) + K_FACE_MAX))
-    if cells.size == 0:
-        empty = np.zeros(1, dtype=np.int64)
-        return Projections3D(np.empty(0, np.int64), np.empty(0), np.empty((0, 3)), np.empty(0), empty,
-                             np.empty(0, np.int64), empty, np.empty(0), empty, np.empty(0))
-    status, l_used, nullities, volume, centroid, diameter, vertex_lists, Pi_nabla_list, Pi_m_list = _build_many(
-        points, face_offsets, face_vertices, cell_offsets, cell_faces, cell_face_signs, cells, *table, l_from, l_to,
-        K_FACE_MAX, RANK_TOL)
-    failed = np.flatnonzero(status != _OK)
-    if failed.size:
-        j = int(failed[0])
-        c = int(cells[j])
-        if status[j] == _FACE_BLIND:
-            raise ValueError(f"cell {c}: a face where no projection of degree <= {K_FACE_MAX} sees all of its DOFs")
-        if status[j] == _SINGULAR_MASS:
-            raise ValueError(f"cell {c}: the P_{l_used[j]} monomial mass matrix is numerically singular")
-        what = f"l={l_used[j]} is rank-deficient" if l is not None else f"no l <= l_max={l_max} is sufficient"
-        raise ValueError(f"cell {c}: {what} ({nullities[j, 1]} zero-strain modes where 6 are expected, gradient "
-                         f"null space {nullities[j, 0]} where 1 is expected)")
-    vertex_offsets, vertices = _csr(vertex_lists)
-    Pi_nabla_offsets, Pi_nabla = _csr(Pi_nabla_list)
-    Pi_m_offsets, Pi_m = _csr(Pi_m_list)
-    return Projections3D(l_used, volume, centroid, diameter, vertex_offsets, vertices.astype(np.int64),
-                         Pi_nabla_offsets, Pi_nabla, Pi_m_offsets, Pi_m)
+    def indices(a: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        return np.ascontiguousarray(a, dtype=np.int64)
+
+    mesh = PolyhedronCells(np.ascontiguousarray(points, dtype=np.float64), indices(face_offsets),
+                           indices(face_vertices), indices(cell_offsets), indices(cell_faces), indices(cell_face_signs),
+                           *triangle_rule_table(max(2 * l_max, l_max + K_FACE_MAX)), K_FACE_MAX)
+    cells = np.arange(mesh.cell_offsets.size - 1) if cells is None else np.ascontiguousarray(cells, dtype=np.int64)
+
+    def face_blind(c: int, status: int) -> ValueError:
+        return ValueError(f"cell {c}: a face where no projection of degree <= {K_FACE_MAX} sees all of its DOFs")
+
+    return build_cell_projections(mesh, cells, 3, l, l_min, l_max, face_blind)
