@@ -34,7 +34,8 @@ from dolfinx_sfvem.discretizations.monomials import evaluate_monomials
 from dolfinx_sfvem.discretizations.node_keys import mean_keys, midpoint_keys
 from dolfinx_sfvem.mesh.polygon_mesh import PolygonMesh
 from dolfinx_sfvem.mesh.csr import concatenated_ranges, edge_key
-from dolfinx_sfvem.discretizations.projection import Projections, build_projections
+from dolfinx_sfvem.discretizations.cell_projection import Projections
+from dolfinx_sfvem.discretizations.projection import build_projections
 from dolfinx_sfvem.discretizations.quadrature import compressed_polygon_quadrature, polygon_quadrature
 
 #: energy quadratures of :class:`VEMSpace`
