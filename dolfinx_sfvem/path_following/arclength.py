@@ -174,30 +174,36 @@ class ArcLength(Control):
             bordered.destroy()
 
     def _step(self, solver: StepSolver, bordered: _Bordered) -> typing.Iterator[Attempt]:
-        """One step: attempts with the arc length halved until one converges (or the smallest fails)."""
+        """One step: attempts with the arc length halved until one converges (or the smallest fails).
+        The start state and each attempt's increment are freed however the step ends."""
         x = solver.x
         start = x.copy()
-        while True:
-            t0 = time.perf_counter()
-            result, load, increment = self._corrector(solver, bordered, start)
-            if result.converged and load > self.until + 1e-12:
-                result, load = self._land(solver, start, increment, load)
-            elapsed = time.perf_counter() - t0
-            if result.converged:
-                self._advance(start, load, result.iterations, solver)
-                start.destroy()
+        try:
+            while True:
+                t0 = time.perf_counter()
+                result, load, increment = self._corrector(solver, bordered, start)
+                try:
+                    if result.converged and load > self.until + 1e-12:
+                        result, load = self._land(solver, start, increment, load)
+                finally:
+                    increment.destroy()
+                elapsed = time.perf_counter() - t0
+                if result.converged:
+                    self._advance(start, load, result.iterations, solver)
+                    yield Attempt(load, result, elapsed)
+                    return
+                start.copy(x)
+                x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                smallest = self.ds / 2 < self.min_shrink * self.ds0 * (1 - 1e-12)
+                if not smallest:
+                    self.ds /= 2
                 yield Attempt(load, result, elapsed)
-                return
-            start.copy(x)
-            x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            smallest = self.ds / 2 < self.min_shrink * self.ds0 * (1 - 1e-12)
-            if not smallest:
-                self.ds /= 2
-            yield Attempt(load, result, elapsed)
-            if smallest:
-                start.destroy()
-                raise SolveFailed(f"arc-length step from load factor {self.load:.6g} failed with the smallest arc "
-                                  f"length {self.ds:.3g} ({result.failure}; {result.iterations} Newton iterations)")
+                if smallest:
+                    raise SolveFailed(f"arc-length step from load factor {self.load:.6g} failed with the smallest "
+                                      f"arc length {self.ds:.3g} ({result.failure}; {result.iterations} Newton "
+                                      f"iterations)")
+        finally:
+            start.destroy()
 
     def _advance(self, start: PETSc.Vec, load: float, iterations: int, solver: StepSolver) -> None:
         """The step to ``load`` converged: keep the increment's direction, adapt the arc length."""
@@ -291,7 +297,6 @@ class ArcLength(Control):
         start.copy(x)
         x.axpy((self.until - self.load) / (load - self.load), du)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        du.destroy()
         return solver.solve_at(self.until), self.until
 
 
