@@ -257,8 +257,9 @@ class PolyhedralSpace(SFVEMNodes):
         Partition-independent node id (module docstring).
     global_nodes : (n_local_nodes,) int64
         Global SFVEM node index of every local node.
-    projections : Projections3D
-        Π^∇_2 and Π⁰_l∇ of the local polyhedra (:func:`~dolfinx_sfvem.discretizations.projection3d.build_projections_3d`).
+    projections : Projections
+        Π^∇_2 and Π⁰_l∇ of the local polyhedra, in ``cells`` order
+        (:func:`~dolfinx_sfvem.discretizations.projection3d.build_projections_3d`).
     quadrature : str
         The name of the energy rule.
     q_offsets, x_q, w_q
